@@ -1,0 +1,1 @@
+"""Scripts executed inside Blender worker processes (bpy); nothing here is imported by the main process."""
