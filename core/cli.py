@@ -15,7 +15,8 @@ from .errors import YcbvssError
 # (module, function): each function takes the argparse sub-parsers object and adds commands,
 # setting ``func`` (handler taking the parsed args, returning an exit code) on each parser.
 _REGISTRARS = [
-    ("ycbvss.commands", "register"),         # demo, validate, convert, assets
+    ("ycbvss.pipeline.cli", "register"),     # demo, validate
+    ("ycbvss.commands", "register"),         # convert, assets
     ("ycbvss.synth.cli", "register"),        # synth, synth preview
     ("ycbvss.refine.cli", "register"),       # refine
     ("ycbvss.eval.cli", "register"),         # eval

@@ -1,0 +1,1 @@
+"""The joined loops: `ycbvss validate` (synth -> perturb -> refine -> eval -> report) and `ycbvss demo`."""
