@@ -48,13 +48,15 @@ def log_so3(R: np.ndarray) -> np.ndarray:
     factor = np.where(small, 0.5 + th**2 / 12.0, th / (2.0 * np.where(small, 1.0, s) + _EPS))
     w = v * factor[..., None]
     if np.any(near_pi):
-        # near pi: (R + I) / 2 = a a^T + O(pi - th); take the axis from its largest column
+        # near pi the antisymmetric part vanishes: take the axis from the symmetric part
         Rf = R.reshape(-1, 3, 3)
         wf = w.reshape(-1, 3)
         vf = v.reshape(-1, 3)
         thf = th.reshape(-1)
         for k in np.flatnonzero(near_pi.reshape(-1)):
-            B = (Rf[k] + np.eye(3)) / 2.0
+            # symmetric part: (R + R^T)/2 = cos(th) I + (1 - cos(th)) a a^T
+            c_k = np.cos(thf[k])
+            B = ((Rf[k] + Rf[k].T) / 2.0 - c_k * np.eye(3)) / (1.0 - c_k)
             i = int(np.argmax(np.diag(B)))
             axis = B[:, i] / np.sqrt(max(B[i, i], _EPS))
             axis /= np.linalg.norm(axis) + _EPS
