@@ -1,0 +1,365 @@
+"""Top level: ``refine_scene`` = scene-consistent initialisation + bundle pose refinement
+(f = f_edge + alpha f_point + beta f_t) over keyframes, then camera-only refinement of the other
+frames, then per-pose uncertainty. See the package docstring for the model."""
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ycbvss.camera import backproject
+from ycbvss.errors import YcbvssError
+from ycbvss.geometry.se3 import interpolate_T, inv_T
+from ycbvss.geometry.so3 import is_rotation, rotation_angle_deg
+
+from .edge import edge_field
+from .init import initialise, sample_model_points, symmetry_transforms
+from .matching import FlowOptions, dense_flow, flow_matches, normalize_for_flow
+from .problem import BundleProblem, View
+from .solver import SolverOptions, covariance, run_lm
+from .templates import composite, edge_samples, ensure_meshes, get_renderer, object_mask, render_view
+from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
+from .uncertainty import pose_sigmas
+
+
+@dataclass
+class RefineOptions:
+    """Options of :func:`refine_scene`.
+
+    alpha / beta weight the point / temporal terms against the edge term (f = f_edge + alpha
+    f_point + beta f_t). The defaults (alpha = 1, beta = 1) balance them per sample: one edge point
+    at the finest level and one match at ~1 px error have comparable curvature.
+    ``keyframe_step`` N > 1: optimise every N-th frame jointly, then place and refine the others
+    (camera only). ``edge_sigmas_px``: coarse-to-fine blur of the edge field. ``max_iters``: outer
+    iterations (re-render + re-sample) per level; ``inner_iters``: damped Newton steps per outer one.
+    """
+
+    use_edge: bool = True
+    use_point: bool = True
+    use_temporal: bool = True
+    alpha: float = 1.0
+    beta: float = 1.0
+    keyframe_step: int = 0
+    max_iters: int = 3
+    inner_iters: int = 4
+    edge_sigmas_px: tuple[float, ...] = (4.0, 2.0, 1.0)
+    nonkey_sigmas_px: tuple[float, ...] = (2.0, 1.0)
+    n_edge_points: int = 1000
+    n_matches: int = 1000
+    rho: float = 0.25
+    temporal_neighbours: int = 1
+    min_visible_px: int = 30
+    n_init_points: int = 200
+    compute_uncertainty: bool = True
+    pose_tol_mm: float = 0.01
+    pose_tol_deg: float = 0.005
+    seed: int = 0
+    flow: FlowOptions = field(default_factory=FlowOptions)
+
+
+@dataclass
+class RefineResult:
+    """Refined poses (mm). ``poses[(im_id, obj_id)]`` object-to-camera; ``T_w2c[im_id]``;
+    ``T_m2w[obj_id]`` (world = first frame's camera); ``init_poses`` the scene-consistent
+    initialisation; ``sigma`` = {"objects": {obj_id: {...}}, "cameras": {im_id: {...}},
+    "poses": {(im_id, obj_id): {...}}} with ``sigma_t_mm`` (3,) and ``sigma_r_deg``; ``log``
+    per-iteration dicts; ``converged``; ``missing_objects`` objects without any init pose;
+    ``visible`` (im_id, obj_id) pairs that had image terms; ``stats`` timings and costs."""
+
+    poses: dict
+    T_w2c: dict
+    T_m2w: dict
+    init_poses: dict
+    sigma: dict
+    log: list
+    converged: bool
+    missing_objects: list = field(default_factory=list)
+    visible: set = field(default_factory=set)
+    stats: dict = field(default_factory=dict)
+
+
+def _valid_pose(T) -> bool:
+    T = np.asarray(T, dtype=np.float64)
+    return T.shape == (4, 4) and bool(np.all(np.isfinite(T))) and bool(is_rotation(T[:3, :3], 1e-3)) and T[2, 3] > 0
+
+
+class _Stage:
+    """One refinement stage on a problem: coarse-to-fine levels of (render, sample, damped Newton)."""
+
+    def __init__(self, pb: BundleProblem, models: dict, opt: RefineOptions, log: list, stats: dict,
+                 term_views: list[int], temporal_pairs: list[tuple[int, int]], name: str):
+        self.pb, self.models, self.opt, self.log, self.stats = pb, models, opt, log, stats
+        self.term_views, self.pairs, self.name = term_views, temporal_pairs, name
+        self.renderer = get_renderer()
+        ensure_meshes(self.renderer, {oid: models[oid] for oid in pb.obj_ids})
+        self.rng = np.random.default_rng(opt.seed)
+        self._norm: dict[int, np.ndarray] = {}
+        self._flows: dict[tuple[int, int], tuple] = {}
+        self.visible: set[tuple[int, int]] = set()
+        self.converged = False
+
+    def _t(self, key: str, dt: float) -> None:
+        self.stats[key] = self.stats.get(key, 0.0) + dt
+
+    def norm_image(self, i: int) -> np.ndarray:
+        if i not in self._norm:
+            self._norm[i] = normalize_for_flow(self.pb.views[i].image)
+        return self._norm[i]
+
+    def render(self, i: int):
+        pb = self.pb
+        v = pb.views[i]
+        t0 = time.perf_counter()
+        vr = render_view(self.renderer, self.models, pb.obj_ids, v.K, v.width, v.height,
+                         {j: pb.pose(i, j) for j in range(len(pb.obj_ids)) if pb.obj_known[j]})
+        self._t("render_s", time.perf_counter() - t0)
+        return vr
+
+    def build_terms(self, fields: dict, renders: dict) -> list:
+        pb, opt = self.pb, self.opt
+        terms = []
+        vis = {(i, j) for i, vr in renders.items() for j in vr.obj_index
+               if int(vr.mask(j).sum()) >= opt.min_visible_px}
+        self.visible |= vis
+        if opt.use_edge:
+            t0 = time.perf_counter()
+            groups = []
+            for (i, j) in sorted(vis):
+                X = edge_samples(renders[i], j, pb.views[i].K, opt.n_edge_points, self.rng)
+                if len(X):
+                    groups.append(EdgeGroup(i, j, X))
+            terms.append(EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0))
+            self._t("edge_sampling_s", time.perf_counter() - t0)
+        if opt.use_point and opt.alpha > 0:
+            t0 = time.perf_counter()
+            groups = []
+            for i, vr in renders.items():
+                objs = [j for j in vr.obj_index if (i, j) in vis]
+                if not objs:
+                    continue
+                tmpl = normalize_for_flow(composite(vr, pb.views[i].image))
+                masks = [object_mask(vr, j) for j in objs]
+                matches = flow_matches(tmpl, self.norm_image(i), masks, opt.flow)
+                for j, (xs, xd) in zip(objs, matches):
+                    if len(xs) == 0:
+                        continue
+                    xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
+                    d = vr.depth_mm[xs[:, 1].round().astype(int), xs[:, 0].round().astype(int)].astype(float)
+                    ok = (d > 0) & (vr.instance[xs[:, 1].round().astype(int), xs[:, 0].round().astype(int)]
+                                    == vr.label_of(j))
+                    if not ok.any():
+                        continue
+                    Y = backproject(pb.views[i].K, xs[ok], d[ok])
+                    Pinv = inv_T(pb.pose(i, j))
+                    groups.append(PointGroup(i, j, Y @ Pinv[:3, :3].T + Pinv[:3, 3], xd[ok]))
+            terms.append(PointTerm(groups, weight=opt.alpha, rho=opt.rho))
+            self._t("point_matching_s", time.perf_counter() - t0)
+        if opt.use_temporal and opt.beta > 0 and self.pairs:
+            t0 = time.perf_counter()
+            groups = []
+            for (k, i) in self.pairs:          # points of view k matched into view i
+                if k not in renders:
+                    renders[k] = self.render(k)
+                vr = renders[k]
+                if (k, i) not in self._flows:
+                    a, b = self.norm_image(k), self.norm_image(i)
+                    self._flows[(k, i)] = (dense_flow(a, b, opt.flow), dense_flow(b, a, opt.flow))
+                m = np.zeros(vr.instance.shape, bool)
+                for j in vr.obj_index:
+                    m |= object_mask(vr, j)
+                (xs, xd), = flow_matches(pb.views[k].image, pb.views[i].image, [m], opt.flow,
+                                         flows=self._flows[(k, i)])
+                if len(xs) == 0:
+                    continue
+                xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
+                d = vr.depth_mm[xs[:, 1].round().astype(int), xs[:, 0].round().astype(int)].astype(float)
+                ok = d > 0
+                if ok.any():
+                    groups.append(TemporalGroup(i, k, backproject(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
+            terms.append(TemporalTerm(groups, weight=opt.beta, rho=opt.rho))
+            self._t("temporal_matching_s", time.perf_counter() - t0)
+        return terms
+
+    def run(self, sigmas) -> list:
+        pb, opt = self.pb, self.opt
+        terms = []
+        sopt = SolverOptions(max_iters=opt.inner_iters)
+        lam = None
+        for sigma in sigmas:
+            t0 = time.perf_counter()
+            fields = {i: edge_field(pb.views[i].image, sigma) for i in self.term_views}
+            self._t("edge_field_s", time.perf_counter() - t0)
+            for outer in range(opt.max_iters):
+                renders = {i: self.render(i) for i in self.term_views}
+                terms = self.build_terms(fields, renders)
+                terms = [t for t in terms if t.groups]
+                if not terms:
+                    self.converged = True
+                    return terms
+                st = pb.state()
+                t0 = time.perf_counter()
+                conv, lam = run_lm(pb, terms, sopt, self.log, stage=f"{self.name} sigma={sigma:g} outer={outer}", lam=lam)
+                self._t("solve_s", time.perf_counter() - t0)
+                dmm, ddeg = _max_change(st, pb.state())
+                if dmm < opt.pose_tol_mm and ddeg < opt.pose_tol_deg:
+                    self.converged = True
+                    break
+                self.converged = conv
+        return terms
+
+
+def _max_change(a, b) -> tuple[float, float]:
+    T0 = np.concatenate([a[0], a[1]])
+    T1 = np.concatenate([b[0], b[1]])
+    dt = float(np.abs(T0[:, :3, 3] - T1[:, :3, 3]).max()) if len(T0) else 0.0
+    dr = float(rotation_angle_deg(np.swapaxes(T0[:, :3, :3], 1, 2) @ T1[:, :3, :3]).max()) if len(T0) else 0.0
+    return dt, dr
+
+
+def _keyframes(n: int, step: int) -> list[int]:
+    if step is None or step <= 1 or n <= 2:
+        return list(range(n))
+    kf = list(range(0, n, step))
+    if kf[-1] != n - 1:
+        kf.append(n - 1)
+    return kf
+
+
+def _pairs(idx: list[int], nb: int) -> list[tuple[int, int]]:
+    out = []
+    for a, i in enumerate(idx):
+        for d in range(1, nb + 1):
+            if a + d < len(idx):
+                out += [(idx[a + d], i), (i, idx[a + d])]
+    return out
+
+
+def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None = None,
+                 images: dict | None = None) -> RefineResult:
+    """Bundle pose refinement of one static scene.
+
+    ``scene``: :class:`ycbvss.scene.Scene` (frames with cameras); ``models``: obj_id -> ObjectModel;
+    ``init``: {(im_id, obj_id): 4x4 mm object-to-camera}, may miss pairs; invalid ones (NaN, not a
+    rotation, behind the camera) are dropped with a warning. ``images``: im_id -> HxWx3 uint8
+    (default: ``frame.load_rgb()``)."""
+    opt = options or RefineOptions()
+    t_start = time.perf_counter()
+    frames = sorted(scene.frames, key=lambda f: f.im_id)
+    if not frames:
+        raise YcbvssError("scene has no frames", where=f"scene {scene.scene_id}")
+    views = []
+    for f in frames:
+        img = images.get(f.im_id) if images is not None else None
+        if img is None:
+            img = f.load_rgb()
+        img = np.asarray(img)
+        if img.ndim == 2:
+            img = np.repeat(img[..., None], 3, axis=2)
+        if img.shape[:2] != (f.camera.height, f.camera.width):
+            raise YcbvssError(f"image size {img.shape[1]}x{img.shape[0]} != camera {f.camera.width}x{f.camera.height}",
+                              f.rgb_path, f.where)
+        views.append(View(f.im_id, f.camera.K.copy(), f.camera.width, f.camera.height, img[..., :3].astype(np.uint8)))
+    vidx = {v.im_id: i for i, v in enumerate(views)}
+    scene_objs = sorted({i.obj_id for f in frames for i in f.instances} | {o for (_, o) in init})
+    obs_raw = {}
+    for (im_id, oid), T in init.items():
+        if im_id not in vidx:
+            continue
+        if oid not in models:
+            raise YcbvssError(f"no model for object {oid}", where=f"scene {scene.scene_id} frame {im_id}")
+        if not _valid_pose(T):
+            warnings.warn(f"scene {scene.scene_id} frame {im_id} object {oid}: invalid init pose "
+                          f"(NaN, not a rotation or behind the camera) dropped")
+            continue
+        obs_raw[(vidx[im_id], oid)] = np.asarray(T, dtype=np.float64)
+    obj_ids = [o for o in scene_objs if o in models and any(k[1] == o for k in obs_raw)]
+    missing = [o for o in scene_objs if o not in obj_ids]
+    if missing:
+        warnings.warn(f"scene {scene.scene_id}: objects {missing} have no valid init pose and are not refined")
+    jidx = {o: j for j, o in enumerate(obj_ids)}
+    obs = {(i, jidx[o]): T for (i, o), T in obs_raw.items() if o in jidx}
+    log: list = []
+    stats: dict = {"n_views": len(views), "n_objects": len(obj_ids)}
+    rng = np.random.default_rng(opt.seed)
+    Xs = [sample_model_points(models[o].vertices_mm if models[o].path is not None else models[o].mesh.vertices,
+                              opt.n_init_points, rng) for o in obj_ids]
+    syms = [symmetry_transforms(models[o]) for o in obj_ids]
+    t0 = time.perf_counter()
+    pb0, known = initialise(views, len(obj_ids), obs, Xs, syms, log=log)
+    stats["init_s"] = time.perf_counter() - t0
+    pb0.obj_ids = obj_ids
+    pb0.obj_known = known
+    init_poses = {(views[i].im_id, obj_ids[j]): pb0.pose(i, j) for i in range(len(views)) for j in range(len(obj_ids))}
+    T_c_init = pb0.T_c.copy()
+
+    n = len(views)
+    kf = _keyframes(n, opt.keyframe_step)
+    pb = BundleProblem([views[i] for i in kf], obj_ids, pb0.T_c[kf], pb0.T_m, obj_free=known)
+    pb.obj_known = known
+    stage = _Stage(pb, models, opt, log, stats, list(range(len(kf))),
+                   _pairs(list(range(len(kf))), opt.temporal_neighbours) if len(kf) > 1 else [], "keyframes")
+    terms_kf = stage.run(opt.edge_sigmas_px)
+    converged = stage.converged
+    visible = {(views[kf[i]].im_id, obj_ids[j]) for (i, j) in stage.visible}
+    cov_kf = covariance(pb, terms_kf) if (opt.compute_uncertainty and terms_kf) else None
+    T_c = pb0.T_c.copy()
+    T_c[kf] = pb.T_c
+    T_m = pb.T_m.copy()
+    cam_cov: dict[int, np.ndarray] = {}
+    obj_cov: dict[int, np.ndarray] = {}
+    cross: dict[tuple[int, int], np.ndarray] = {}
+    if cov_kf is not None:
+        for a, i in enumerate(kf):
+            b = pb.cam_block[a]
+            if b >= 0:
+                cam_cov[i] = cov_kf[6 * b:6 * b + 6, 6 * b:6 * b + 6]
+        for j in range(len(obj_ids)):
+            b = pb.obj_block[j]
+            if b >= 0:
+                obj_cov[j] = cov_kf[6 * b:6 * b + 6, 6 * b:6 * b + 6]
+                for a, i in enumerate(kf):
+                    c = pb.cam_block[a]
+                    if c >= 0:
+                        cross[(i, j)] = cov_kf[6 * c:6 * c + 6, 6 * b:6 * b + 6]
+
+    nonkey = [i for i in range(n) if i not in set(kf)]
+    if nonkey:
+        for i in nonkey:   # SE(3) interpolation of the keyframe corrections
+            a = max(k for k in kf if k < i)
+            b = min(k for k in kf if k > i)
+            pa = T_c_init[i] @ inv_T(T_c_init[a]) @ T_c[a]
+            pb_ = T_c_init[i] @ inv_T(T_c_init[b]) @ T_c[b]
+            T_c[i] = interpolate_T(pa, pb_, (i - a) / (b - a))
+        free = np.zeros(n, bool)
+        free[nonkey] = True
+        pbn = BundleProblem(views, obj_ids, T_c, T_m, cam_free=free, obj_free=np.zeros(len(obj_ids), bool))
+        pbn.obj_known = known
+        nk_pairs = [(k, i) for (k, i) in _pairs(list(range(n)), opt.temporal_neighbours) if i in set(nonkey)]
+        st2 = _Stage(pbn, models, opt, log, stats, nonkey, nk_pairs, "frames")
+        terms_nk = st2.run(opt.nonkey_sigmas_px)
+        converged = converged and st2.converged
+        visible |= {(views[i].im_id, obj_ids[j]) for (i, j) in st2.visible}
+        T_c = pbn.T_c.copy()
+        cov_nk = covariance(pbn, terms_nk) if (opt.compute_uncertainty and terms_nk) else None
+        if cov_nk is not None:
+            for i in nonkey:
+                b = pbn.cam_block[i]
+                cam_cov[i] = cov_nk[6 * b:6 * b + 6, 6 * b:6 * b + 6]
+
+    poses = {(views[i].im_id, obj_ids[j]): T_c[i] @ T_m[j] for i in range(n) for j in range(len(obj_ids)) if known[j]}
+    sigma = pose_sigmas(T_c, T_m, cam_cov, obj_cov, cross, [v.im_id for v in views], obj_ids, known)
+    stats["total_s"] = time.perf_counter() - t_start
+    for k, v in list(stats.items()):
+        if isinstance(v, float):
+            stats[k] = round(v, 4)
+    ok_all = all(np.all(np.isfinite(T)) for T in poses.values())
+    if not ok_all:   # never hand out NaN: fall back to the initialisation
+        poses = {k: (T if np.all(np.isfinite(T)) else init_poses[k]) for k, T in poses.items()}
+        converged = False
+    return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n)},
+                        T_m2w={obj_ids[j]: T_m[j] for j in range(len(obj_ids)) if known[j]},
+                        init_poses={k: v for k, v in init_poses.items() if known[obj_ids.index(k[1])]},
+                        sigma=sigma, log=log, converged=bool(converged), missing_objects=missing,
+                        visible=visible, stats=stats)

@@ -1,0 +1,144 @@
+"""Scene-consistent initialisation from per-view pose estimates (CosyPose-style, paper Eq. 1).
+
+Given initial object-to-camera poses P^_ij for some (view, object) pairs, find cameras T_c[i]
+(world = camera of view 0) and world object poses T_m[j] minimising
+sum_ij sum_X rho(||pi(P^_ij X) - pi(T_c[i] T_m[j] X)||) over sampled model points X with a
+truncated quadratic loss rho. Symmetric objects: each observation is first replaced by its
+symmetric equivalent P^_ij S closest to the current scene-consistent pose.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ycbvss.geometry.se3 import inv_T
+from ycbvss.geometry.so3 import exp_so3
+
+from .jacobians import object_point_jacobians
+from .problem import BundleProblem, View
+from .solver import SolverOptions, run_lm
+from .terms import PointGroup, PointTerm
+
+
+def symmetry_transforms(model, n_continuous: int = 36) -> list[np.ndarray]:
+    """Symmetry transforms (4x4, model frame, mm) of an ObjectModel, identity first.
+
+    Discrete symmetries as given; each continuous symmetry axis is discretised into ``n_continuous`` steps."""
+    out = [np.eye(4)]
+    for S in getattr(model, "symmetries_discrete", []) or []:
+        S = np.asarray(S, dtype=np.float64).reshape(4, 4)
+        if not np.allclose(S, np.eye(4)):
+            out.append(S)
+    for c in getattr(model, "symmetries_continuous", []) or []:
+        axis = np.asarray(c["axis"], float)
+        axis = axis / (np.linalg.norm(axis) + 1e-12)
+        off = np.asarray(c.get("offset", [0, 0, 0]), float)
+        base = list(out)
+        for k in range(1, n_continuous):
+            R = exp_so3(axis * 2 * np.pi * k / n_continuous)
+            S = np.eye(4)
+            S[:3, :3] = R
+            S[:3, 3] = off - R @ off
+            out += [S @ B for B in base]
+    return out
+
+
+def sample_model_points(vertices_mm: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    v = np.asarray(vertices_mm, dtype=np.float64)
+    if len(v) <= n:
+        return v.copy()
+    return v[rng.choice(len(v), n, replace=False)]
+
+
+def _reproj_cost(K, P_hat, P, X) -> float:
+    a = object_point_jacobians(K, np.eye(4), P_hat, X)[0]
+    b, _, _, ok = object_point_jacobians(K, np.eye(4), P, X)[:4]
+    if not ok.all():
+        return np.inf
+    return float(np.mean(np.minimum(np.linalg.norm(a - b, axis=1), 50.0)))
+
+
+def propagate(n_views: int, n_objs: int, obs: dict[tuple[int, int], np.ndarray], Ks: list[np.ndarray],
+              X: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Initial guess by propagation over the view-object graph starting at view 0.
+
+    Cameras that see an already placed object take the candidate (one per such object) with the
+    lowest truncated reprojection cost over all their placed observations. Returns T_c, T_m,
+    cam_known (n,), obj_known (m,). Views not connected to view 0 take the nearest connected view's
+    camera (by index); objects never observed stay unknown."""
+    T_c = np.tile(np.eye(4), (n_views, 1, 1))
+    T_m = np.tile(np.eye(4), (n_objs, 1, 1))
+    ck = np.zeros(n_views, bool)
+    ok_ = np.zeros(n_objs, bool)
+    start = 0
+    ck[start] = True
+    changed = True
+    while changed:
+        changed = False
+        for (i, j), P in obs.items():
+            if ck[i] and not ok_[j]:
+                T_m[j] = inv_T(T_c[i]) @ P
+                ok_[j] = True
+                changed = True
+        for i in range(n_views):
+            if ck[i]:
+                continue
+            cands = [obs[(i, j)] @ inv_T(T_m[j]) for j in range(n_objs) if ok_[j] and (i, j) in obs]
+            if not cands:
+                continue
+            seen = [j for j in range(n_objs) if ok_[j] and (i, j) in obs]
+            best = min(cands, key=lambda C: sum(_reproj_cost(Ks[i], obs[(i, j)], C @ T_m[j], X[j]) for j in seen))
+            T_c[i] = best
+            ck[i] = True
+            changed = True
+    if ck.any():
+        known = np.flatnonzero(ck)
+        for i in np.flatnonzero(~ck):
+            T_c[i] = T_c[known[np.argmin(np.abs(known - i))]]
+    return T_c, T_m, ck, ok_
+
+
+def align_symmetric(obs: dict, T_c: np.ndarray, T_m: np.ndarray, syms: list[list[np.ndarray]],
+                    X: list[np.ndarray]) -> dict:
+    """Replace each observation P^_ij by the symmetric equivalent P^_ij S closest (mean 3D point distance)
+    to the current consistent pose T_c[i] T_m[j]."""
+    out = {}
+    for (i, j), P in obs.items():
+        if len(syms[j]) <= 1:
+            out[(i, j)] = P
+            continue
+        cur = (T_c[i] @ T_m[j])
+        Yc = X[j] @ cur[:3, :3].T + cur[:3, 3]
+        best, bd = P, np.inf
+        for S in syms[j]:
+            Q = P @ S
+            d = float(np.mean(np.linalg.norm(X[j] @ Q[:3, :3].T + Q[:3, 3] - Yc, axis=1)))
+            if d < bd:
+                best, bd = Q, d
+        out[(i, j)] = best
+    return out
+
+
+def initialise(views: list[View], n_objs: int, obs: dict[tuple[int, int], np.ndarray], X: list[np.ndarray],
+               syms: list[list[np.ndarray]] | None = None, trunc_px: tuple[float, ...] = (40.0, 15.0),
+               max_iters: int = 15, log: list | None = None) -> tuple[BundleProblem, np.ndarray]:
+    """Scene-consistent cameras and objects from the observations ``obs[(view index, object index)]``.
+
+    Returns (problem with T_c, T_m set; obj_known (m,) bool). ``X[j]``: sampled model points (mm)."""
+    n = len(views)
+    Ks = [v.K for v in views]
+    syms = syms or [[np.eye(4)] for _ in range(n_objs)]
+    T_c, T_m, ck, okn = propagate(n, n_objs, obs, Ks, X)
+    pb = BundleProblem(views, list(range(n_objs)), T_c, T_m,
+                       cam_free=np.r_[False, ck[1:]], obj_free=okn)
+    for tau in trunc_px:
+        cur = align_symmetric(obs, pb.T_c, pb.T_m, syms, X)
+        groups = []
+        for (i, j), P in cur.items():
+            if not okn[j]:
+                continue
+            x, _, _, valid = object_point_jacobians(Ks[i], np.eye(4), P, X[j])
+            if valid.any():
+                groups.append(PointGroup(i, j, X[j][valid], x[valid]))
+        term = PointTerm(groups, weight=1.0, rho=2.0, floor_px=0.0, cap_px=tau, name="init")
+        run_lm(pb, [term], SolverOptions(max_iters=max_iters), log=log, stage=f"init tau={tau:g}px")
+    return pb, okn

@@ -1,0 +1,90 @@
+"""Point matches from dense optical flow (paper Sec. 3.2): Farneback flow between a source and a
+destination image, a reciprocal (forward-backward) check, taken at Shi-Tomasi corners of the source.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .edge import sample_bilinear
+
+
+@dataclass
+class FlowOptions:
+    """Farneback parameters, reciprocal-check threshold and corner detector settings."""
+
+    pyr_scale: float = 0.5
+    levels: int = 4
+    winsize: int = 15
+    iterations: int = 3
+    poly_n: int = 5
+    poly_sigma: float = 1.1
+    check_px: float = 0.75        # forward-backward consistency threshold
+    max_corners: int = 1000
+    quality: float = 0.01
+    min_distance_px: int = 3
+
+
+def _gray_u8(img: np.ndarray) -> np.ndarray:
+    img = np.asarray(img)
+    if img.ndim == 3:
+        img = cv2.cvtColor(img.astype(np.uint8), cv2.COLOR_RGB2GRAY)
+    return np.ascontiguousarray(img.astype(np.uint8))
+
+
+def dense_flow(src: np.ndarray, dst: np.ndarray, opt: FlowOptions) -> np.ndarray:
+    """Farneback flow (H, W, 2) float32: src(x) ~ dst(x + flow(x))."""
+    return cv2.calcOpticalFlowFarneback(_gray_u8(src), _gray_u8(dst), None, opt.pyr_scale, opt.levels,
+                                        opt.winsize, opt.iterations, opt.poly_n, opt.poly_sigma, 0)
+
+
+def corners(img: np.ndarray, mask: np.ndarray | None, opt: FlowOptions, max_n: int | None = None) -> np.ndarray:
+    """Shi-Tomasi corners (N, 2) float64 of an image inside ``mask``."""
+    if mask is not None and not np.any(mask):
+        return np.zeros((0, 2))
+    pts = cv2.goodFeaturesToTrack(_gray_u8(img), maxCorners=int(max_n or opt.max_corners), qualityLevel=opt.quality,
+                                  minDistance=opt.min_distance_px,
+                                  mask=None if mask is None else mask.astype(np.uint8))
+    return np.zeros((0, 2)) if pts is None else pts.reshape(-1, 2).astype(np.float64)
+
+
+def reciprocal_matches(pts: np.ndarray, fwd: np.ndarray, bwd: np.ndarray, check_px: float
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Map pts (N, 2) of the source by ``fwd``; keep those whose backward flow returns within check_px.
+
+    Returns (src_pts (M, 2), dst_pts (M, 2))."""
+    if len(pts) == 0:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    f, ok1 = sample_bilinear(fwd, pts)
+    q = pts + f
+    b, ok2 = sample_bilinear(bwd, q)
+    err = np.linalg.norm(f + b, axis=1)
+    keep = ok1 & ok2 & (err < check_px)
+    return pts[keep], q[keep]
+
+
+def flow_matches(src: np.ndarray, dst: np.ndarray, src_masks: list[np.ndarray], opt: FlowOptions,
+                 flows: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Matches src -> dst at corners of ``src`` inside each mask of ``src_masks`` (one list entry per mask).
+
+    ``flows`` = (fwd, bwd) may be passed to reuse computed flows."""
+    if flows is None:
+        flows = (dense_flow(src, dst, opt), dense_flow(dst, src, opt))
+    fwd, bwd = flows
+    out = []
+    for m in src_masks:
+        out.append(reciprocal_matches(corners(src, m, opt), fwd, bwd, opt.check_px))
+    return out
+
+
+def normalize_for_flow(img: np.ndarray, sigma_px: float = 6.0) -> np.ndarray:
+    """Local contrast normalisation (gray, zero local mean, unit local std -> uint8) so that flow
+    between an unlit rendered template and a lit photo is not fooled by shading/gain differences."""
+    g = _gray_u8(img).astype(np.float32)
+    mu = cv2.GaussianBlur(g, (0, 0), sigma_px)
+    hp = g - mu
+    sd = np.sqrt(cv2.GaussianBlur(hp * hp, (0, 0), 2 * sigma_px)) + 4.0
+    return np.clip(128.0 + 48.0 * hp / sd, 0, 255).astype(np.uint8)

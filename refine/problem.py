@@ -1,0 +1,92 @@
+"""The bundle problem: views (cameras), objects and their parameter blocks.
+
+World frame = the first view's camera frame (its camera is fixed to identity, the gauge).
+The pose of object j in view i is P_ij = T_c[i] @ T_m[j] (object-to-camera, mm).
+Parameters are left se(3) increments: camera blocks for views 1..n-1 (those marked free), then
+object blocks for all objects (those marked free).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ycbvss.geometry.se3 import exp_se3, inv_T
+
+
+@dataclass
+class View:
+    """One image of the bundle: id, intrinsics, size, image (HxWx3 uint8)."""
+
+    im_id: int
+    K: np.ndarray
+    width: int
+    height: int
+    image: np.ndarray | None = None
+
+
+@dataclass
+class BundleProblem:
+    """Poses to refine. ``T_c`` (n, 4, 4) world-to-camera, ``T_m`` (m, 4, 4) model-to-world (mm)."""
+
+    views: list[View]
+    obj_ids: list[int]
+    T_c: np.ndarray
+    T_m: np.ndarray
+    cam_free: np.ndarray = field(default=None)    # (n,) bool; view 0 is never free
+    obj_free: np.ndarray = field(default=None)    # (m,) bool
+
+    def __post_init__(self):
+        n, m = len(self.views), len(self.obj_ids)
+        self.T_c = np.array(self.T_c, dtype=np.float64).reshape(n, 4, 4)
+        self.T_m = np.array(self.T_m, dtype=np.float64).reshape(m, 4, 4)
+        if self.cam_free is None:
+            self.cam_free = np.ones(n, dtype=bool)
+            self.cam_free[0] = False
+        if self.obj_free is None:
+            self.obj_free = np.ones(m, dtype=bool)
+        self.cam_free = np.asarray(self.cam_free, dtype=bool).copy()
+        self.obj_free = np.asarray(self.obj_free, dtype=bool).copy()
+        self._index()
+
+    def _index(self) -> None:
+        """Block index per camera / object (-1 = fixed)."""
+        k = 0
+        self.cam_block = -np.ones(len(self.views), dtype=int)
+        for i, f in enumerate(self.cam_free):
+            if f:
+                self.cam_block[i] = k
+                k += 1
+        self.obj_block = -np.ones(len(self.obj_ids), dtype=int)
+        for j, f in enumerate(self.obj_free):
+            if f:
+                self.obj_block[j] = k
+                k += 1
+        self.n_blocks = k
+
+    @property
+    def n_params(self) -> int:
+        return 6 * self.n_blocks
+
+    def pose(self, i: int, j: int) -> np.ndarray:
+        """Object-to-camera pose P_ij = T_c[i] T_m[j]."""
+        return self.T_c[i] @ self.T_m[j]
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.T_c.copy(), self.T_m.copy()
+
+    def set_state(self, st: tuple[np.ndarray, np.ndarray]) -> None:
+        self.T_c, self.T_m = st[0].copy(), st[1].copy()
+
+    def apply_step(self, delta: np.ndarray) -> None:
+        """Left-multiply every free block by exp(delta_block)."""
+        delta = np.asarray(delta, dtype=np.float64).reshape(-1, 6)
+        for i, b in enumerate(self.cam_block):
+            if b >= 0:
+                self.T_c[i] = exp_se3(delta[b]) @ self.T_c[i]
+        for j, b in enumerate(self.obj_block):
+            if b >= 0:
+                self.T_m[j] = exp_se3(delta[b]) @ self.T_m[j]
+
+    def camera_centre(self, i: int) -> np.ndarray:
+        return inv_T(self.T_c[i])[:3, 3]

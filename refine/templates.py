@@ -1,0 +1,117 @@
+"""Rendered templates T_ij of a view (all modelled objects at once, so they occlude each other) and
+the samples taken from them: edge points (exterior contour + interior Canny) and flow matches,
+both lifted to 3D through the rendered depth."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ycbvss.camera import backproject
+from ycbvss.geometry.se3 import inv_T
+
+from .edge import contour_points, interior_points, subsample
+
+_RENDERER = None
+
+
+def get_renderer():
+    """One fast renderer per process (moderngl EGL context)."""
+    global _RENDERER
+    if _RENDERER is None:
+        from ycbvss.render import Renderer
+        _RENDERER = Renderer()
+    return _RENDERER
+
+
+def mesh_key(obj_id: int, model) -> tuple:
+    return ("ycbvss.refine", int(obj_id), str(getattr(model, "path", "")), id(model))
+
+
+def ensure_meshes(renderer, models: dict) -> None:
+    for oid, m in models.items():
+        k = mesh_key(oid, m)
+        if not renderer.has_mesh(k):
+            renderer.add_mesh(k, m.mesh)
+
+
+@dataclass
+class ViewRender:
+    """Render of all objects of one view: instance (H, W) (index into ``obj_index`` + 1, 0 = none),
+    depth_mm (H, W), color (H, W, 3) uint8, the poses used and the object indices rendered."""
+
+    instance: np.ndarray
+    depth_mm: np.ndarray
+    color: np.ndarray
+    poses: list[np.ndarray]
+    obj_index: list[int]
+
+    def label_of(self, j: int) -> int:
+        return self.obj_index.index(j) + 1 if j in self.obj_index else -1
+
+    def mask(self, j: int) -> np.ndarray:
+        return self.instance == self.label_of(j)
+
+
+def render_view(renderer, models: dict, obj_ids: list[int], K: np.ndarray, width: int, height: int,
+                poses: dict[int, np.ndarray]) -> ViewRender:
+    """Render objects (index j -> pose) in front of the camera; others are skipped."""
+    items, used, P = [], [], []
+    for j, T in poses.items():
+        if not np.all(np.isfinite(T)) or T[2, 3] <= 10.0:
+            continue
+        oid = obj_ids[j]
+        items.append((mesh_key(oid, models[oid]), T))
+        used.append(j)
+        P.append(T)
+    if not items:
+        return ViewRender(np.zeros((height, width), np.int32), np.zeros((height, width), np.float32),
+                          np.zeros((height, width, 3), np.uint8), [], [])
+    out = renderer.render(K, width, height, items, outputs=("depth", "instance", "color"))
+    return ViewRender(out.instance, out.depth_mm, out.color, P, used)
+
+
+def edge_samples(vr: ViewRender, j: int, K: np.ndarray, n_max: int, rng: np.random.Generator,
+                 erode_px: int = 2) -> np.ndarray:
+    """Up to n_max model points (mm) on the exterior contour (half) and interior Canny edges (half)
+    of object j's template; the contour takes the interior's unused share."""
+    lab = vr.label_of(j)
+    if lab < 0:
+        return np.zeros((0, 3))
+    uv_c, d_c = contour_points(vr.instance, vr.depth_mm, lab)
+    uv_i, d_i = interior_points(vr.instance, vr.depth_mm, vr.color, lab, erode_px=erode_px)
+    n_i = min(len(uv_i), n_max // 2)
+    n_c = min(len(uv_c), n_max - n_i)
+    ii = subsample(n_i, len(uv_i), rng)
+    ic = subsample(n_c, len(uv_c), rng)
+    uv = np.concatenate([uv_c[ic], uv_i[ii]])
+    d = np.concatenate([d_c[ic], d_i[ii]])
+    ok = d > 0
+    Y = backproject(K, uv[ok], d[ok])
+    P = vr.poses[lab - 1]
+    return Y @ inv_T(P)[:3, :3].T + inv_T(P)[:3, 3]
+
+
+def object_mask(vr: ViewRender, j: int, erode_px: int = 2) -> np.ndarray:
+    m = vr.mask(j).astype(np.uint8)
+    if erode_px > 0 and m.any():
+        m = cv2.erode(m, np.ones((2 * erode_px + 1, 2 * erode_px + 1), np.uint8))
+    return m > 0
+
+
+def composite(vr: ViewRender, image: np.ndarray) -> np.ndarray:
+    """The template: rendered colour where an object was rendered, else the image itself."""
+    m = vr.instance > 0
+    out = image.copy()
+    out[m] = vr.color[m]
+    return out
+
+
+def lift(vr: ViewRender, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Camera points (N, 3) at integer-rounded pixels uv (N, 2) through the rendered depth; valid (N,)."""
+    H, W = vr.depth_mm.shape
+    u = np.clip(np.round(uv[:, 0]).astype(int), 0, W - 1)
+    v = np.clip(np.round(uv[:, 1]).astype(int), 0, H - 1)
+    d = vr.depth_mm[v, u].astype(np.float64)
+    return d, d > 0

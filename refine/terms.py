@@ -1,0 +1,198 @@
+"""Cost terms of the bundle refinement, each linearised to per-point pixel-space quantities.
+
+Every term produces, for groups of points sharing the same two parameter blocks (a, b), the pixel
+Jacobians Ja, Jb (N, 2, 6), the pixel-space Hessian A (N, 2, 2) and gradient g (N, 2) of its cost
+w.r.t. the projected pixel; :mod:`ycbvss.refine.solver` turns them into normal equations. Costs are
+evaluated with the same samples (model points, matches) for step acceptance.
+
+- :class:`EdgeTerm`: f_edge = sum_X E_i(pi(P_ij X)) (E the edge field). Newton-type: gradient
+  grad E, Hessian = Hessian of E projected to positive semi-definite (the Gauss-Newton J^T J of a
+  residual E would vanish at the edge, where dE/du = 0).
+- :class:`PointTerm`: f_point = sum ||x - pi(P_ij X)||^rho (rho = 0.25), IRLS weights
+  w = rho * max(s, s_floor)^(rho - 2) (s the pixel error); matches beyond ``cap_px`` are outliers.
+- :class:`TemporalTerm`: f_t = sum ||x - pi(T_c_i T_c_k^-1 Y_k)||^rho for camera-k points Y_k
+  (back-projected through the rendered depth) matched to pixels x of view i; cameras only.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .edge import EdgeField, sample_field
+from .jacobians import object_point_jacobians, transfer_point_jacobians
+from .problem import BundleProblem
+
+
+@dataclass
+class Linearization:
+    a: int
+    b: int
+    Ja: np.ndarray
+    Jb: np.ndarray
+    A: np.ndarray
+    g: np.ndarray
+
+
+def psd2(H: np.ndarray, floor: float = 0.0) -> np.ndarray:
+    """Project symmetric 2x2 matrices (N, 2, 2) to PSD (eigenvalues clamped at ``floor``)."""
+    if len(H) == 0:
+        return H
+    w, V = np.linalg.eigh(0.5 * (H + np.swapaxes(H, 1, 2)))
+    w = np.maximum(w, floor)
+    return (V * w[:, None, :]) @ np.swapaxes(V, 1, 2)
+
+
+@dataclass
+class EdgeGroup:
+    i: int          # view index
+    j: int          # object index
+    X: np.ndarray   # (N, 3) model points (mm)
+
+
+@dataclass
+class EdgeTerm:
+    """Edge alignment cost over groups of model edge points; one field per view."""
+
+    fields: list[EdgeField]
+    groups: list[EdgeGroup] = field(default_factory=list)
+    weight: float = 1.0
+    name: str = "edge"
+
+    def n_obs(self) -> int:
+        return int(sum(len(gr.X) for gr in self.groups))
+
+    def _eval(self, pb: BundleProblem, gr: EdgeGroup, jac: bool):
+        K = pb.views[gr.i].K
+        uv, Jc, Jo, valid = object_point_jacobians(K, pb.T_c[gr.i], pb.T_m[gr.j], gr.X)
+        uv = np.where(valid[:, None], uv, -1e9)
+        E, grad, H, inside = sample_field(self.fields[gr.i], uv)
+        ok = valid & inside
+        E = np.where(ok, E, 1.0)
+        return E, grad, H, ok, Jc, Jo
+
+    def cost(self, pb: BundleProblem) -> float:
+        return self.weight * float(sum(self._eval(pb, gr, False)[0].sum() for gr in self.groups))
+
+    def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
+        total, out = 0.0, []
+        for gr in self.groups:
+            E, grad, H, ok, Jc, Jo = self._eval(pb, gr, True)
+            total += float(E.sum())
+            if not ok.any():
+                continue
+            A = psd2(H[ok]) * self.weight
+            g = grad[ok] * self.weight
+            out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j]), Jc[ok], Jo[ok], A, g))
+        return self.weight * total, out
+
+    def mean_cost(self, pb: BundleProblem) -> float:
+        n = self.n_obs()
+        return self.cost(pb) / self.weight / n if n else float("nan")
+
+
+def robust_cost_weights(r: np.ndarray, rho: float, floor_px: float, cap_px: float
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-match cost min(s, cap)^rho, IRLS weight and inlier mask for residual vectors r (N, 2)."""
+    s = np.linalg.norm(r, axis=1)
+    inl = s < cap_px
+    c = np.minimum(s, cap_px) ** rho
+    w = np.where(inl, rho * np.maximum(s, floor_px) ** (rho - 2.0), 0.0)
+    return c, w, inl
+
+
+@dataclass
+class PointGroup:
+    i: int
+    j: int
+    X: np.ndarray    # (N, 3) model points
+    x: np.ndarray    # (N, 2) matched pixels in view i
+
+
+@dataclass
+class PointTerm:
+    """Robust 3D-2D reprojection cost (||.||^rho) of flow matches."""
+
+    groups: list[PointGroup] = field(default_factory=list)
+    weight: float = 1.0
+    rho: float = 0.25
+    floor_px: float = 0.5
+    cap_px: float = 30.0
+    name: str = "point"
+
+    def n_obs(self) -> int:
+        return int(2 * sum(len(gr.X) for gr in self.groups))
+
+    def _res(self, pb: BundleProblem, gr: PointGroup):
+        uv, Jc, Jo, valid = object_point_jacobians(pb.views[gr.i].K, pb.T_c[gr.i], pb.T_m[gr.j], gr.X)
+        r = np.where(valid[:, None], gr.x - uv, 1e6)
+        return r, Jc, Jo, valid
+
+    def cost(self, pb: BundleProblem) -> float:
+        tot = 0.0
+        for gr in self.groups:
+            r = self._res(pb, gr)[0]
+            tot += robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)[0].sum()
+        return self.weight * float(tot)
+
+    def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
+        total, out = 0.0, []
+        for gr in self.groups:
+            r, Jc, Jo, valid = self._res(pb, gr)
+            c, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
+            total += float(c.sum())
+            ok = inl & valid
+            if not ok.any():
+                continue
+            A = (w[ok] * self.weight)[:, None, None] * np.eye(2)[None]
+            g = -(w[ok] * self.weight)[:, None] * r[ok]
+            out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j]), Jc[ok], Jo[ok], A, g))
+        return self.weight * total, out
+
+
+@dataclass
+class TemporalGroup:
+    i: int           # view where x is observed
+    k: int           # view whose camera frame holds Y_k
+    Y_k: np.ndarray  # (N, 3) points in camera k (mm)
+    x: np.ndarray    # (N, 2) matched pixels in view i
+
+
+@dataclass
+class TemporalTerm:
+    """Robust two-view transfer cost between neighbouring views (cameras only)."""
+
+    groups: list[TemporalGroup] = field(default_factory=list)
+    weight: float = 1.0
+    rho: float = 0.25
+    floor_px: float = 0.5
+    cap_px: float = 30.0
+    name: str = "temporal"
+
+    def n_obs(self) -> int:
+        return int(2 * sum(len(gr.x) for gr in self.groups))
+
+    def _res(self, pb: BundleProblem, gr: TemporalGroup):
+        uv, Ji, Jk, valid = transfer_point_jacobians(pb.views[gr.i].K, pb.T_c[gr.i], pb.T_c[gr.k], gr.Y_k)
+        r = np.where(valid[:, None], gr.x - uv, 1e6)
+        return r, Ji, Jk, valid
+
+    def cost(self, pb: BundleProblem) -> float:
+        tot = 0.0
+        for gr in self.groups:
+            tot += robust_cost_weights(self._res(pb, gr)[0], self.rho, self.floor_px, self.cap_px)[0].sum()
+        return self.weight * float(tot)
+
+    def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
+        total, out = 0.0, []
+        for gr in self.groups:
+            r, Ji, Jk, valid = self._res(pb, gr)
+            c, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
+            total += float(c.sum())
+            ok = inl & valid
+            if not ok.any():
+                continue
+            A = (w[ok] * self.weight)[:, None, None] * np.eye(2)[None]
+            g = -(w[ok] * self.weight)[:, None] * r[ok]
+            out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.cam_block[gr.k]), Ji[ok], Jk[ok], A, g))
+        return self.weight * total, out
