@@ -27,6 +27,7 @@ def plot_curves(add_errors: dict, prj_errors: dict, out_png: str | Path, names: 
               (axes[1], prj_errors, prj_bound_px, "PRJ threshold (px)"))
     cmap = plt.get_cmap("tab20")
     for ax, errs, bound, xlabel in panels:
+        ax.set_title(xlabel.split(" threshold")[0])
         thr = np.linspace(0.0, bound, n_thresholds)
         curves = []
         for i, o in enumerate(sorted(errs)):
@@ -39,6 +40,7 @@ def plot_curves(add_errors: dict, prj_errors: dict, out_png: str | Path, names: 
             mean = np.mean(curves, axis=0)
             auc = float(np.trapz(mean, thr) / bound)
             ax.plot(thr, mean, lw=2.6, color="black", label=f"mean (AUC {auc:.1f})")
+            ax.set_title(f"{xlabel.split(' threshold')[0]}: mean over {len(curves)} objects, AUC {auc:.1f}")
         ax.set_xlim(0, bound)
         ax.set_ylim(0, 100)
         ax.set_xlabel(xlabel)
