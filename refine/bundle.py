@@ -47,6 +47,8 @@ class RefineOptions:
     edge_sigmas_px: tuple[float, ...] = (4.0, 2.0, 1.0)
     nonkey_sigmas_px: tuple[float, ...] = (2.0, 1.0)
     n_edge_points: int = 1000
+    edge_curv_floor: float = 1.0
+    edge_norm_percentile: float = 99.0
     n_matches: int = 1000
     rho: float = 0.25
     temporal_neighbours: int = 1
@@ -130,7 +132,9 @@ class _Stage:
                 X = edge_samples(renders[i], j, pb.views[i].K, opt.n_edge_points, self.rng)
                 if len(X):
                     groups.append(EdgeGroup(i, j, X))
-            terms.append(EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0))
+            sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
+            terms.append(EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
+                                  curv_floor=opt.edge_curv_floor / sig))
             self._t("edge_sampling_s", time.perf_counter() - t0)
         if opt.use_point and opt.alpha > 0:
             t0 = time.perf_counter()
@@ -189,7 +193,7 @@ class _Stage:
         lam = None
         for sigma in sigmas:
             t0 = time.perf_counter()
-            fields = {i: edge_field(pb.views[i].image, sigma) for i in self.term_views}
+            fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
             for outer in range(opt.max_iters):
                 renders = {i: self.render(i) for i in self.term_views}

@@ -46,13 +46,18 @@ def gradient_magnitude(gray: np.ndarray, sigma_px: float) -> np.ndarray:
     return np.sqrt(gx * gx + gy * gy)
 
 
-def edge_field(image: np.ndarray, sigma_px: float = 1.0) -> EdgeField:
+def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float = 100.0) -> EdgeField:
     """Edge field of an image (RGB or gray) at blur ``sigma_px``.
 
-    A uniform image (max gradient 0) gives E = 1 everywhere and zero derivatives (no pull)."""
+    ``norm_percentile`` = 100 is the paper's normalisation by the maximum gradient; a lower
+    percentile (robust maximum, values above it clip to E = 0) keeps one very strong edge from
+    flattening all others. A uniform image (max gradient 0) gives E = 1 everywhere and zero
+    derivatives (no pull)."""
     mag = gradient_magnitude(to_gray_f32(image), sigma_px)
-    mx = float(mag.max())
-    E = np.ones_like(mag) if mx <= 1e-6 else 1.0 - mag / mx
+    mx = float(mag.max()) if norm_percentile >= 100 else float(np.percentile(mag, norm_percentile))
+    if mx <= 1e-6:
+        mx = float(mag.max())
+    E = np.ones_like(mag) if mx <= 1e-6 else 1.0 - np.minimum(mag / mx, 1.0)
     Ev, Eu = np.gradient(E)
     Euv, Euu = np.gradient(Eu)
     Evv, _ = np.gradient(Ev)
@@ -124,10 +129,55 @@ def contour_points(inst: np.ndarray, depth: np.ndarray, label: int) -> tuple[np.
     return uv, depth[v, u].astype(np.float64)
 
 
+def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 25.0,
+                 depth_jump_rel: float = 0.03) -> tuple[np.ndarray, np.ndarray]:
+    """Geometric edges of a rendered template (H, W) bool: the normal turns by more than
+    ``min_angle_deg`` or the depth jumps (self-occlusion) towards the right/lower neighbour; the
+    edge is marked on the nearer pixel with an offset (H, W, 2) of half a pixel towards the other
+    one (the edge lies between the pixel centres). These are the shading/crease edges a photo
+    shows even on textureless objects (box edges, a mug's rim)."""
+    H, W = depth.shape
+    out = np.zeros((H, W), bool)
+    off = np.zeros((H, W, 2), np.float32)
+    c = np.cos(np.radians(min_angle_deg))
+    for dv, du in ((0, 1), (1, 0)):
+        n0, n1 = normal[: H - dv, : W - du], normal[dv:, du:]
+        d0, d1 = depth[: H - dv, : W - du], depth[dv:, du:]
+        both = (d0 > 0) & (d1 > 0)
+        e = both & (((n0 * n1).sum(-1) < c) | (np.abs(d0 - d1) > depth_jump_rel * np.minimum(d0, d1)))
+        near0 = d0 <= d1
+        a, b = e & near0, e & ~near0
+        out[: H - dv, : W - du] |= a
+        out[dv:, du:] |= b
+        off[: H - dv, : W - du][a] = (0.5 * du, 0.5 * dv)
+        off[dv:, du:][b] = (-0.5 * du, -0.5 * dv)
+    return out, off
+
+
+def subpixel_offsets(gray: np.ndarray, v: np.ndarray, u: np.ndarray, sigma_px: float = 1.0) -> np.ndarray:
+    """Sub-pixel position of edge pixels (v, u) along the gradient: parabola through the gradient
+    magnitude at -1, 0, +1 px along the gradient direction. Returns offsets (N, 2) (du, dv), |.| <= 0.5."""
+    g = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), sigma_px)
+    gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3) / 8.0
+    gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3) / 8.0
+    mag = np.sqrt(gx * gx + gy * gy)
+    d = np.stack([gx[v, u], gy[v, u]], 1).astype(np.float64)
+    d /= np.linalg.norm(d, axis=1, keepdims=True) + 1e-9
+    p = np.stack([u, v], 1).astype(np.float64)
+    m0 = mag[v, u].astype(np.float64)
+    mp = sample_bilinear(mag[..., None], p + d)[0][:, 0]
+    mm = sample_bilinear(mag[..., None], p - d)[0][:, 0]
+    den = mm - 2 * m0 + mp
+    t = np.where(den < -1e-9, 0.5 * (mm - mp) / np.where(den < -1e-9, den, -1.0), 0.0)
+    t = np.clip(t, -0.5, 0.5)
+    return t[:, None] * d
+
+
 def interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, label: int,
-                    canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Interior Canny edges of the rendered colour inside the (eroded) silhouette: uv (N, 2), depth (N,)."""
+                    canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2,
+                    normal: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Interior edges inside the (eroded) silhouette: Canny on the rendered colour plus (if
+    ``normal`` is given) crease / self-occlusion edges of the geometry. uv (N, 2), depth (N,)."""
     m = (inst == label).astype(np.uint8)
     if erode_px > 0:
         m = cv2.erode(m, np.ones((2 * erode_px + 1, 2 * erode_px + 1), np.uint8))
@@ -136,11 +186,18 @@ def interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, labe
     ys, xs = np.nonzero(m)
     y0, y1, x0, x1 = max(ys.min() - 2, 0), ys.max() + 3, max(xs.min() - 2, 0), xs.max() + 3
     gray = cv2.cvtColor(np.ascontiguousarray(color[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
-    edges = cv2.Canny(gray, canny_lo, canny_hi) > 0
-    edges &= m[y0:y1, x0:x1] > 0
+    inside = m[y0:y1, x0:x1] > 0
+    edges = (cv2.Canny(gray, canny_lo, canny_hi) > 0) & inside
     v, u = np.nonzero(edges)
-    v, u = v + y0, u + x0
-    return np.stack([u, v], 1).astype(np.float64), depth[v, u].astype(np.float64)
+    uv = np.stack([u, v], 1).astype(np.float64) + subpixel_offsets(gray, v, u)
+    dep = depth[v + y0, u + x0]
+    if normal is not None:
+        ce, off = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1])
+        ce &= inside & ~edges
+        v2, u2 = np.nonzero(ce)
+        uv = np.concatenate([uv, np.stack([u2, v2], 1) + off[v2, u2]])
+        dep = np.concatenate([dep, depth[v2 + y0, u2 + x0]])
+    return uv + (x0, y0), dep.astype(np.float64)
 
 
 def subsample(n_max: int, n: int, rng: np.random.Generator) -> np.ndarray:

@@ -46,6 +46,7 @@ class ViewRender:
     color: np.ndarray
     poses: list[np.ndarray]
     obj_index: list[int]
+    normal: np.ndarray | None = None
 
     def label_of(self, j: int) -> int:
         return self.obj_index.index(j) + 1 if j in self.obj_index else -1
@@ -68,8 +69,8 @@ def render_view(renderer, models: dict, obj_ids: list[int], K: np.ndarray, width
     if not items:
         return ViewRender(np.zeros((height, width), np.int32), np.zeros((height, width), np.float32),
                           np.zeros((height, width, 3), np.uint8), [], [])
-    out = renderer.render(K, width, height, items, outputs=("depth", "instance", "color"))
-    return ViewRender(out.instance, out.depth_mm, out.color, P, used)
+    out = renderer.render(K, width, height, items, outputs=("depth", "instance", "color", "normal"))
+    return ViewRender(out.instance, out.depth_mm, out.color, P, used, out.normal_cam)
 
 
 def edge_samples(vr: ViewRender, j: int, K: np.ndarray, n_max: int, rng: np.random.Generator,
@@ -80,7 +81,7 @@ def edge_samples(vr: ViewRender, j: int, K: np.ndarray, n_max: int, rng: np.rand
     if lab < 0:
         return np.zeros((0, 3))
     uv_c, d_c = contour_points(vr.instance, vr.depth_mm, lab)
-    uv_i, d_i = interior_points(vr.instance, vr.depth_mm, vr.color, lab, erode_px=erode_px)
+    uv_i, d_i = interior_points(vr.instance, vr.depth_mm, vr.color, lab, erode_px=erode_px, normal=vr.normal)
     n_i = min(len(uv_i), n_max // 2)
     n_c = min(len(uv_c), n_max - n_i)
     ii = subsample(n_i, len(uv_i), rng)

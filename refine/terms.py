@@ -57,6 +57,7 @@ class EdgeTerm:
     fields: list[EdgeField]
     groups: list[EdgeGroup] = field(default_factory=list)
     weight: float = 1.0
+    curv_floor: float = 0.0       # per-point curvature floor = curv_floor * |grad E| (bounds a point's step to ~1/curv_floor px)
     name: str = "edge"
 
     def n_obs(self) -> int:
@@ -81,7 +82,8 @@ class EdgeTerm:
             total += float(E.sum())
             if not ok.any():
                 continue
-            A = psd2(H[ok]) * self.weight
+            gn = np.linalg.norm(grad[ok], axis=1)
+            A = (psd2(H[ok]) + (self.curv_floor * gn)[:, None, None] * np.eye(2)[None]) * self.weight
             g = grad[ok] * self.weight
             out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j]), Jc[ok], Jo[ok], A, g))
         return self.weight * total, out

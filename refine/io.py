@@ -1,0 +1,58 @@
+"""Outputs of ``ycbvss refine``: BOP19 CSV, BOP scene_gt.json + scene_camera.json (with the solved
+cam_R_w2c / cam_t_w2c), world object poses, per-pose uncertainty and the convergence log."""
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+
+from ycbvss.io.atomic import write_json_atomic
+from ycbvss.io.results import Estimate
+
+from .bundle import RefineResult
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k) if not isinstance(k, tuple) else "_".join(str(int(v)) for v in k): _jsonable(v)
+                for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    return x
+
+
+def estimates_of(scene_id: int, res: RefineResult, time_s: float = -1.0) -> list[Estimate]:
+    """BOP19 estimates (score 1, same time for every estimate of the scene)."""
+    return [Estimate(int(scene_id), int(im), int(o), 1.0, T, time_s) for (im, o), T in sorted(res.poses.items())]
+
+
+def write_scene_outputs(out_dir: str | Path, split: str, scene, res: RefineResult) -> Path:
+    """Write <out>/<split>/<scene:06d>/{scene_gt.json, scene_camera.json} and
+    <out>/refine/<scene:06d>_{world.json, sigma.json, log.json}. Returns the scene directory."""
+    from ycbvss.io.bop import BopSceneWriter
+    from ycbvss.scene import Instance
+
+    out_dir = Path(out_dir)
+    w = BopSceneWriter(out_dir / split, scene.scene_id)
+    for f in sorted(scene.frames, key=lambda f: f.im_id):
+        g = copy.copy(f)
+        g.T_w2c = res.T_w2c.get(f.im_id)
+        g.instances = [Instance(o, res.poses[(im, o)], gt_id=k) for k, ((im, o)) in
+                       enumerate(sorted(key for key in res.poses if key[0] == f.im_id))]
+        w.write_frame(g)
+    w.close()
+    base = out_dir / "refine"
+    sid = f"{scene.scene_id:06d}"
+    write_json_atomic(base / f"{sid}_world.json", {
+        "world": "camera frame of the first image",
+        "T_m2w": {str(o): np.asarray(T).tolist() for o, T in res.T_m2w.items()},
+        "T_w2c": {str(i): np.asarray(T).tolist() for i, T in res.T_w2c.items()},
+        "missing_objects": res.missing_objects, "converged": res.converged})
+    write_json_atomic(base / f"{sid}_sigma.json", _jsonable(res.sigma))
+    write_json_atomic(base / f"{sid}_log.json", _jsonable({"stats": res.stats, "log": res.log}))
+    return w.dir
