@@ -88,9 +88,24 @@ def sample_bilinear(data: np.ndarray, uv: np.ndarray, outside: np.ndarray | None
 
 
 def sample_field(field: EdgeField, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """E (N,), gradient (N, 2), Hessian (N, 2, 2) and inside (N,) of the field at uv (N, 2)."""
+    """E (N,), gradient (N, 2), Hessian (N, 2, 2) and inside (N,) of the field at uv (N, 2).
+
+    E is bilinearly interpolated and the gradient is the exact derivative of that interpolant (so
+    it is consistent with the cost the solver evaluates); the Hessian is the bilinear
+    interpolation of the central-difference second derivatives (it only scales the step)."""
     vals, inside = sample_bilinear(field.data, uv, outside=np.array([1, 0, 0, 0, 0, 0], float))
-    grad = vals[:, 1:3]
+    grad = np.zeros((len(uv), 2))
+    if np.any(inside):
+        E = field.data[..., 0]
+        H_, W_ = E.shape
+        u, v = uv[inside, 0], uv[inside, 1]
+        u0 = np.clip(np.floor(u).astype(int), 0, max(W_ - 2, 0))
+        v0 = np.clip(np.floor(v).astype(int), 0, max(H_ - 2, 0))
+        u1, v1 = np.minimum(u0 + 1, W_ - 1), np.minimum(v0 + 1, H_ - 1)
+        a, b = u - u0, v - v0
+        e00, e01, e10, e11 = E[v0, u0], E[v0, u1], E[v1, u0], E[v1, u1]
+        grad[inside, 0] = (1 - b) * (e01 - e00) + b * (e11 - e10)
+        grad[inside, 1] = (1 - a) * (e10 - e00) + a * (e11 - e01)
     H = np.empty((len(uv), 2, 2))
     H[:, 0, 0], H[:, 0, 1], H[:, 1, 0], H[:, 1, 1] = vals[:, 3], vals[:, 4], vals[:, 4], vals[:, 5]
     return vals[:, 0], grad, H, inside
@@ -204,4 +219,4 @@ def subsample(n_max: int, n: int, rng: np.random.Generator) -> np.ndarray:
     """Indices of at most n_max of n items (random, without replacement, sorted)."""
     if n <= n_max:
         return np.arange(n)
-    return np.sort(rng.choice(n, n_max, replace=False))
+    return np.sort(np.argpartition(rng.random(n), n_max)[:n_max])

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ycbvss.geometry.se3 import inv_T
 from ycbvss.geometry.so3 import hat
 
 MIN_Z_MM = 1.0   # points closer than this (or behind the camera) are invalid
@@ -65,7 +66,7 @@ def transfer_point_jacobians(K_i: np.ndarray, T_c_i: np.ndarray, T_c_k: np.ndarr
     """Projection into camera i of points Y_k (N, 3) given in camera k, with Jacobians.
 
     Returns uv (N, 2), J_i (N, 2, 6), J_k (N, 2, 6), valid (N,)."""
-    T_ik = T_c_i @ np.linalg.inv(T_c_k)
+    T_ik = T_c_i @ inv_T(T_c_k)
     Y_i = Y_k @ T_ik[:3, :3].T + T_ik[:3, 3]
     uv, Ju, valid = project_jac(K_i, Y_i)
     J_i = Ju @ _point_jac(Y_i)

@@ -1,0 +1,96 @@
+"""Analytic Jacobians and term gradients of the bundle refinement vs finite differences (< 2 s)."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ycbvss.geometry.se3 import exp_se3, make_T
+from ycbvss.refine.edge import EdgeField, edge_field
+from ycbvss.refine.jacobians import object_point_jacobians, transfer_point_jacobians
+from ycbvss.refine.problem import BundleProblem, View
+from ycbvss.refine.solver import assemble
+from ycbvss.refine.terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
+
+K = np.array([[500.0, 0, 160], [0, 505.0, 120], [0, 0, 1]])
+
+
+def _poses(rng):
+    Tc = exp_se3(np.r_[rng.normal(scale=20, size=3), rng.normal(scale=0.1, size=3)])
+    Tm = make_T(np.eye(3), [0, 0, 600]) @ exp_se3(np.r_[rng.normal(scale=5, size=3), rng.normal(scale=0.5, size=3)])
+    return Tc, Tm
+
+
+def test_projection_jacobians_match_finite_differences():
+    rng = np.random.default_rng(1)
+    Tc, Tm = _poses(rng)
+    X = rng.normal(scale=40, size=(20, 3))
+    _, Jc, Jo, ok = object_point_jacobians(K, Tc, Tm, X)
+    assert ok.all()
+    h, worst = 1e-6, 0.0
+    for k in range(6):
+        e = np.zeros(6)
+        e[k] = h
+        fc = (object_point_jacobians(K, exp_se3(e) @ Tc, Tm, X)[0] - object_point_jacobians(K, exp_se3(-e) @ Tc, Tm, X)[0]) / (2 * h)
+        fo = (object_point_jacobians(K, Tc, exp_se3(e) @ Tm, X)[0] - object_point_jacobians(K, Tc, exp_se3(-e) @ Tm, X)[0]) / (2 * h)
+        worst = max(worst, np.abs(fc - Jc[:, :, k]).max(), np.abs(fo - Jo[:, :, k]).max())
+    assert worst < 1e-5 * max(1.0, np.abs(Jc).max())
+    Tk = exp_se3(np.r_[15, -5, 3, 0.05, -0.02, 0.03])
+    Yk = rng.normal(scale=40, size=(20, 3)) + [0, 0, 600]
+    _, Ji, Jk, ok = transfer_point_jacobians(K, Tc, Tk, Yk)
+    worst = 0.0
+    for k in range(6):
+        e = np.zeros(6)
+        e[k] = h
+        fi = (transfer_point_jacobians(K, exp_se3(e) @ Tc, Tk, Yk)[0] - transfer_point_jacobians(K, exp_se3(-e) @ Tc, Tk, Yk)[0]) / (2 * h)
+        fk = (transfer_point_jacobians(K, Tc, exp_se3(e) @ Tk, Yk)[0] - transfer_point_jacobians(K, Tc, exp_se3(-e) @ Tk, Yk)[0]) / (2 * h)
+        worst = max(worst, np.abs(fi - Ji[:, :, k]).max(), np.abs(fk - Jk[:, :, k]).max())
+    assert worst < 1e-5 * max(1.0, np.abs(Ji).max())
+
+
+def _fd_gradient(pb, term, h):
+    g = np.zeros(pb.n_params)
+    st = pb.state()
+    for p in range(pb.n_params):
+        d = np.zeros(pb.n_params)
+        d[p] = h
+        pb.apply_step(d)
+        cp = term.cost(pb)
+        pb.set_state(st)
+        pb.apply_step(-d)
+        cm = term.cost(pb)
+        pb.set_state(st)
+        g[p] = (cp - cm) / (2 * h)
+    return g
+
+
+def _problem(rng, two_views=True):
+    views = [View(0, K, 320, 240), View(1, K, 320, 240)]
+    Tc, Tm = _poses(rng)
+    return BundleProblem(views, [1], np.stack([np.eye(4), Tc]), Tm[None])
+
+
+def test_term_gradients_match_finite_differences():
+    rng = np.random.default_rng(2)
+    pb = _problem(rng)
+    X = rng.normal(scale=30, size=(60, 3))
+    # smooth edge field (blurred noise) so that the sampled derivatives are accurate
+    img = cv2.GaussianBlur((rng.random((240, 320)) * 255).astype(np.float32), (0, 0), 6)
+    img = (255 * (img - img.min()) / np.ptp(img)).astype(np.uint8)
+    f = edge_field(img, 4.0)
+    terms = [EdgeTerm([f, f], [EdgeGroup(0, 0, X), EdgeGroup(1, 0, X)]),
+             PointTerm([PointGroup(1, 0, X, object_point_jacobians(K, pb.T_c[1], pb.T_m[0], X)[0]
+                                   + rng.normal(scale=3, size=(60, 2)))], rho=0.25, floor_px=0.0),
+             TemporalTerm([TemporalGroup(1, 0, X + [0, 0, 600], transfer_point_jacobians(K, pb.T_c[1], pb.T_c[0], X + [0, 0, 600])[0]
+                                         + rng.normal(scale=3, size=(60, 2)))], rho=0.25, floor_px=0.0)]
+    for term, h, tol in ((terms[0], 1e-4, 0.1), (terms[1], 1e-6, 1e-3), (terms[2], 1e-6, 1e-3)):
+        _, lins = term.linearize(pb)
+        _, g = assemble(pb.n_blocks, lins)
+        g_fd = _fd_gradient(pb, term, h)
+        rel = np.linalg.norm(g - g_fd) / np.linalg.norm(g_fd)
+        assert rel < tol, (term.name, rel)
+
+
+def test_uniform_image_gives_flat_edge_field():
+    f = edge_field(np.full((40, 50, 3), 128, np.uint8), 1.0)
+    assert isinstance(f, EdgeField)
+    assert float(np.abs(f.E - 1.0).max()) == 0.0 and float(np.abs(f.data[..., 1:]).max()) == 0.0
