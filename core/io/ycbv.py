@@ -89,6 +89,20 @@ def _obj_center_m(path: str) -> tuple[float, float, float]:
     return tuple(float(x) for x in c)
 
 
+def _stamp(path: Path) -> tuple[int, int]:
+    st = path.stat()
+    return st.st_mtime_ns, st.st_size
+
+
+@lru_cache(maxsize=256)
+def _model_stats(path: str, mtime_ns: int, size: int) -> tuple[float, tuple[float, float, float]]:
+    """(diameter mm, bbox centre mm) of a textured.obj in metres; cached per file version."""
+    from .mesh import diameter_mm, load_vertices_mm
+    v = load_vertices_mm(path, 1000.0)
+    c = (v.min(axis=0) + v.max(axis=0)) / 2
+    return diameter_mm(v), tuple(float(x) for x in c)
+
+
 def model_center_m(obj_path: str | Path) -> np.ndarray:
     """Bounding-box centre c (metres) of a YCB-Video textured.obj: the BOP model origin."""
     return np.array(_obj_center_m(str(Path(obj_path).resolve())))
@@ -110,7 +124,6 @@ def _ycbv_symmetries(obj_id: int, c_mm: np.ndarray) -> tuple[list, list]:
 def load_ycbv_models(root: str | Path, symmetric_obj_ids: Iterable[int] | None = None) -> dict[int, ObjectModel]:
     """ObjectModels (textured.obj, metres -> unit_scale 1000) for every model folder present."""
     from ..manifest import object_entries, protocol_symmetric_ids
-    from .mesh import diameter_mm, load_vertices_mm
     root = Path(root)
     sym = set(protocol_symmetric_ids() if symmetric_obj_ids is None else symmetric_obj_ids)
     entries = object_entries()
@@ -119,12 +132,12 @@ def load_ycbv_models(root: str | Path, symmetric_obj_ids: Iterable[int] | None =
         path = root / "models" / name / "textured.obj"
         if not path.is_file():
             continue
-        v = load_vertices_mm(path, 1000.0)
-        c_mm = (v.min(axis=0) + v.max(axis=0)) / 2
+        diam, c = _model_stats(str(path.resolve()), *_stamp(path))
+        c_mm = np.array(c)
         disc, cont = _ycbv_symmetries(oid, c_mm)
         e = entries.get(oid, {})
         models[oid] = ObjectModel(
-            obj_id=oid, path=path, name=name, unit_scale=1000.0, diameter_mm=diameter_mm(v),
+            obj_id=oid, path=path, name=name, unit_scale=1000.0, diameter_mm=diam,
             symmetries_discrete=disc, symmetries_continuous=cont, symmetric=oid in sym,
             textureless=bool(e.get("textureless", False)),
             info={"center_m": (c_mm / 1000.0).tolist(), "points_xyz": str(root / "models" / name / "points.xyz")})
