@@ -55,15 +55,18 @@ def _takes_rng() -> bool:
     return len(inspect.signature(random_rotation).parameters) > 0
 
 
-def time_outputs(r, items, outputs, frames: int, warmup: int = 5) -> float:
+def time_outputs(r, items, outputs, frames: int, warmup: int = 5) -> tuple[float, float, float]:
+    """(median wall ms, min wall ms, mean process CPU ms incl. llvmpipe threads) per frame."""
     for _ in range(warmup):
         r.render(K_UW, 640, 480, items, outputs=outputs)
     ts = []
+    c0 = time.process_time()
     for _ in range(frames):
         t0 = time.perf_counter()
         r.render(K_UW, 640, 480, items, outputs=outputs)
         ts.append(time.perf_counter() - t0)
-    return 1000.0 * float(np.median(ts))
+    cpu = (time.process_time() - c0) / frames
+    return 1000.0 * float(np.median(ts)), 1000.0 * float(np.min(ts)), 1000.0 * cpu
 
 
 def main() -> None:
@@ -93,14 +96,16 @@ def main() -> None:
     print(f"models: {', '.join(NAMES)}; faces: {[len(m.faces) for m in meshes.values()]}")
     print(f"load {t_load:.1f} s, upload (incl. texture mipmaps) {t_upload:.2f} s; object pixels visible "
           f"{visible}, occluded fraction {[round(o, 2) for o in occl]}")
+    print(f"load average before timing: {os.getloadavg()[0]:.2f} (wall times inflate when other processes run)")
     print()
-    print(f"| outputs (640x480, 6 objects, median of {args.frames}) | ms / frame |")
-    print("|---|---|")
+    print(f"| outputs (640x480, 6 objects) | median ms/frame ({args.frames} frames) | min ms | CPU ms/frame |")
+    print("|---|---|---|---|")
     sets = [("depth", "instance"), ("depth",), ("instance",), ("depth", "instance", "normal"),
             ("depth", "instance", "color"), ("depth", "instance", "normal", "color"), ("mask_all",)]
     for outs in sets:
-        ms = time_outputs(r, items, outs, args.frames if outs != ("mask_all",) else max(10, args.frames // 5))
-        print(f"| {'+'.join(outs)} | {ms:.2f} |")
+        med, mn, cpu = time_outputs(r, items, outs, args.frames)
+        print(f"| {'+'.join(outs)} | {med:.2f} | {mn:.2f} | {cpu:.2f} |")
+    print(f"load average after timing: {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ import trimesh
 from ycbvss.camera import backproject, project
 from ycbvss.errors import YcbvssError
 from ycbvss.geometry.so3 import exp_so3
-from ycbvss.render import Renderer, clip_to_pixels, mesh_texture, projection_from_K
+from ycbvss.render import Renderer, clip_to_pixels, mesh_texture, projection_from_K, roi_K
 
 K0 = np.array([[520.0, 0.0, 161.3], [0.0, 515.0, 118.7], [0.0, 0.0, 1.0]])
 W0, H0 = 320, 240
@@ -274,12 +274,41 @@ def test_robust_near_plane_offscreen_empty(r):
     assert not behind.instance.any()
     offimg = r.render(K0, W0, H0, [("sphere", pose(t=(5000, 0, 300.0)))], outputs=("depth", "instance"))
     assert not offimg.instance.any()
+    # centre 20 px left of the image, radius ~87 px: must not be frustum-culled; visible part is analytic
+    zc = 300.0
+    xc = (-20 - K0[0, 2]) * zc / K0[0, 0]
+    edge = r.render(K0, W0, H0, [("sphere", pose(t=(xc, 0, zc)))], outputs=("instance", "mask_all"))
+    cols = np.nonzero(edge.instance.any(0))[0]
+    r_px = K0[0, 0] * 50.0 / np.sqrt(zc ** 2 - 50.0 ** 2)  # apparent radius (tangent cone)
+    assert cols.min() == 0 and abs(cols.max() - (-20 + r_px)) < 1.5, (cols.max(), -20 + r_px)
+    assert (edge.masks_all[0] == (edge.instance == 1)).all()
     # box straddling the near plane (x 5..85, z 5..45 mm, znear 10), camera outside it
     cut = r.render(K0, W0, H0, [("box", pose(t=(45, 0, 25.0)))], outputs=("depth", "instance", "normal"),
                    znear_mm=10.0)
     d = cut.depth_mm
     assert np.isfinite(d).all() and np.isfinite(cut.normal_cam).all()
     assert cut.instance.sum() > 100 and d[d > 0].min() >= 10.0 - 1e-3 and d.max() <= 45.0 + 1e-3
+
+
+def test_roi_render_equals_crop_of_full_render(r):
+    items = [("sphere", pose(t=(10.0, 5.0, 500.0))), ("box", pose((0.2, 0.5, 0.1), (-40.0, 10.0, 420.0)))]
+    full = r.render(K0, W0, H0, items, outputs=("depth", "instance", "normal"))
+    x0, y0, w, h = 101, 57, 90, 70
+    crop = r.render(roi_K(K0, x0, y0), w, h, items, outputs=("depth", "instance", "normal"))
+    assert (crop.instance != full.instance[y0:y0 + h, x0:x0 + w]).sum() == 0
+    assert np.abs(crop.depth_mm - full.depth_mm[y0:y0 + h, x0:x0 + w]).max() < 1e-3
+    assert np.abs(crop.normal_cam - full.normal_cam[y0:y0 + h, x0:x0 + w]).max() < 1e-4
+
+
+def test_headlight_shading_darkens_grazing_surfaces(r):
+    out0 = r.render(K0, W0, H0, [("sphere", pose(t=(0, 0, 400.0)))], outputs=("color", "depth"))
+    out1 = r.render(K0, W0, H0, [("sphere", pose(t=(0, 0, 400.0)))], outputs=("color", "depth"), shade=1.0)
+    m = out0.depth_mm > 0
+    u, v = int(round(K0[0, 2])), int(round(K0[1, 2]))
+    assert abs(int(out1.color[v, u, 0]) - int(out0.color[v, u, 0])) <= 2     # facing the camera: albedo
+    ys, xs = np.nonzero(m)
+    rim = (np.hypot(xs - K0[0, 2], ys - K0[1, 2]) > 0.95 * np.hypot(xs - K0[0, 2], ys - K0[1, 2]).max())
+    assert out1.color[ys[rim], xs[rim], 0].mean() < 0.5 * out0.color[ys[rim], xs[rim], 0].mean()
 
 
 def test_bad_input_raises(r):

@@ -33,7 +33,29 @@ def get_context():
             raise YcbvssError("cannot create a headless OpenGL context (need EGL + Mesa llvmpipe or a GPU): "
                               + "; ".join(errors), where="ycbvss.render")
         _CTX, _CTX_PID = ctx, os.getpid()
+        _tune_malloc()
         return ctx
+
+
+def _tune_malloc() -> None:
+    """Keep freed image-sized buffers in the heap (glibc) instead of returning them to the OS.
+
+    Each render returns fresh (H, W) arrays; with glibc's default mmap threshold every one of them is a new
+    mmap whose page faults cost ~1 ms per 640x480 frame -- a tenth of the frame budget on llvmpipe.
+    Raising M_MMAP_THRESHOLD / M_TRIM_THRESHOLD makes repeated renders reuse heap memory.  Disable with
+    ``YCBVSS_RENDER_NO_MALLOPT=1``.  No-op without glibc.
+    """
+    if os.environ.get("YCBVSS_RENDER_NO_MALLOPT"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        m_trim_threshold, m_mmap_threshold = -1, -3
+        libc.mallopt(m_mmap_threshold, 32 * 1024 * 1024)
+        libc.mallopt(m_trim_threshold, 256 * 1024 * 1024)
+    except (OSError, AttributeError):
+        pass
 
 
 def context_info() -> dict:

@@ -48,3 +48,16 @@ def clip_to_pixels(P: np.ndarray, X_cam: np.ndarray, width: int, height: int) ->
     u = ((ndc[..., 0] + 1.0) * width - 1.0) / 2.0
     v = ((ndc[..., 1] + 1.0) * height - 1.0) / 2.0
     return np.stack([u, v], axis=-1)
+
+
+def roi_K(K: np.ndarray, x0: float, y0: float, scale: float = 1.0) -> np.ndarray:
+    """Intrinsics of the image crop whose top-left pixel is (x0, y0) of the original image, optionally
+    resized by ``scale`` (pixel-centre convention kept exact).  Rendering with ``roi_K(K, x0, y0)`` at size
+    (w, h) gives exactly ``full_render[y0:y0+h, x0:x0+w]`` at a fraction of the cost."""
+    K2 = np.asarray(K, dtype=np.float64).copy()
+    K2[0, 2] -= x0
+    K2[1, 2] -= y0
+    if scale != 1.0:
+        K2[:2, :2] *= scale
+        K2[:2, 2] = (K2[:2, 2] + 0.5) * scale - 0.5
+    return K2

@@ -1,6 +1,6 @@
 """GLSL 330 sources of the rasteriser; variants are selected by #defines (normal and/or colour outputs).
 
-Attachment 0 is always RG32F = (camera z in mm, instance id as float); colour (RGBA8) and normal (RGBA16F)
+Attachment 0 is always RG32F = (camera z in mm, instance id as float); colour (RGBA8) and normal (RGBA32F)
 follow in that order when requested.  The camera z is a perspective-correct varying (z is affine on each
 triangle in 3D, so the interpolation is exact up to float32 rounding) -- the non-linear z-buffer is only
 used for the depth test.

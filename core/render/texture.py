@@ -60,6 +60,45 @@ def merge_coincident(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarra
     return V[first], inv[np.asarray(faces, dtype=np.int64)], inv
 
 
+def spatial_order(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reorder a mesh for locality: faces sorted by the Morton (Z-order) code of their centroids, vertices
+    renumbered in first-use order (unreferenced vertices dropped).  Same surface, same images; on llvmpipe
+    the better vertex-cache and tile locality saves ~20 % of the raster time.
+
+    Returns ``(face_order, vertex_order, faces_new)`` with ``faces_new = remap[faces[face_order]]`` indexing
+    ``vertices[vertex_order]``.
+    """
+    V = np.asarray(vertices, dtype=np.float64)
+    F = np.asarray(faces, dtype=np.int64)
+    if len(F) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), F.reshape(0, 3)
+    c = V[F].mean(axis=1)
+    lo, span = c.min(0), np.maximum(np.ptp(c, axis=0), 1e-12)
+    q = np.clip(((c - lo) / span * 1023.0).astype(np.int64), 0, 1023)
+    code = np.zeros(len(F), dtype=np.int64)
+    for b in range(10):
+        for a in range(3):
+            code |= ((q[:, a] >> b) & 1) << (3 * b + a)
+    face_order = np.argsort(code, kind="stable")
+    flat = F[face_order].reshape(-1)
+    _, first = np.unique(flat, return_index=True)
+    vertex_order = flat[np.sort(first)]
+    remap = np.full(len(V), -1, dtype=np.int64)
+    remap[vertex_order] = np.arange(len(vertex_order))
+    return face_order, vertex_order, remap[F[face_order]]
+
+
+def first_use_order(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Renumber vertices in order of first use by ``faces``: ``(vertices_new, faces_new)``."""
+    F = np.asarray(faces, dtype=np.int64)
+    flat = F.reshape(-1)
+    _, first = np.unique(flat, return_index=True)
+    order = flat[np.sort(first)]
+    remap = np.full(len(vertices), -1, dtype=np.int64)
+    remap[order] = np.arange(len(order))
+    return np.asarray(vertices)[order], remap[F]
+
+
 def is_closed_outward(vertices: np.ndarray, faces: np.ndarray) -> bool:
     """True if the surface (coincident vertices merged) has no boundary edge, consistent winding and positive
     signed volume, i.e. back faces are never visible from outside and can be culled."""
