@@ -21,9 +21,9 @@ from .camera import CV_TO_BLENDER_CAM, blender_camera_params, border_from_bbox, 
 
 DEFAULT_LIGHTS = [
     # direction the light travels, in the OpenCV camera frame (from upper left behind the camera)
-    {"type": "SUN", "direction_cam": [0.35, 0.6, 1.0], "strength": 2.5, "angle_deg": 20.0},
+    {"type": "SUN", "direction_cam": [0.3, 0.5, 1.0], "strength": 3.0, "angle_deg": 25.0},
 ]
-DEFAULT_WORLD_STRENGTH = 0.6
+DEFAULT_WORLD_STRENGTH = 0.8
 GREY = (0.6, 0.6, 0.6)
 
 
@@ -99,8 +99,11 @@ class BlenderSession:
 
     def configure(self, width: int = 640, height: int = 480, samples: int = 16, denoise: bool = True,
                   threads: int = 0, lights: list | None = None, world_strength: float | None = None,
-                  **_ignored) -> None:
+                  max_bounces: int = 3, **_ignored) -> None:
         sc = self.scene
+        sc.cycles.max_bounces = int(max_bounces)
+        sc.cycles.diffuse_bounces = min(2, int(max_bounces))
+        sc.cycles.glossy_bounces = min(1, int(max_bounces))
         sc.render.resolution_x = int(width)
         sc.render.resolution_y = int(height)
         sc.cycles.samples = int(samples)
@@ -223,13 +226,11 @@ class BlenderSession:
         bsdf.inputs["Roughness"].default_value = 0.55
         bsdf.inputs["Specular IOR Level"].default_value = 0.35
         if tex_rgb is not None:
-            h, w = tex_rgb.shape[:2]
-            img = bpy.data.images.new(f"tex_{key}", width=w, height=h, alpha=False)
-            rgba = np.ones((h, w, 4), np.float32)
-            rgba[..., :3] = tex_rgb[::-1].astype(np.float32) / 255.0   # Blender rows start at the bottom
-            img.pixels.foreach_set(rgba.ravel())
+            import cv2
+            tex_path = self._tmpdir / f"tex_{key}.png"
+            cv2.imwrite(str(tex_path), np.ascontiguousarray(tex_rgb[..., ::-1]), [cv2.IMWRITE_PNG_COMPRESSION, 1])
+            img = bpy.data.images.load(str(tex_path))
             img.colorspace_settings.name = "sRGB"
-            img.pack()
             node = nt.nodes.new("ShaderNodeTexImage")
             node.image = img
             node.interpolation = "Linear"

@@ -1,0 +1,192 @@
+"""Synthesis of one YCBV-SS frame; runs INSIDE a Blender worker process (``worker.call``).
+
+Task in, files out: ``rgb/``, ``depth/``, ``mask/``, ``mask_visib/`` of the frame and, written last,
+the done marker ``.done/NNNNNN.json`` holding the frame's scene_gt / scene_camera / scene_gt_info
+entries and statistics. Randomness comes only from seeds derived from (seed, scene_id, im_id).
+"""
+from __future__ import annotations
+
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import YcbvssError
+from .blender import frame_seed
+from .composite import CompositeObject, composite_frame, merge_depth
+from .frame_files import FrameFiles
+from .noise import NoiseParams
+
+
+def marker_path(split_dir, scene_id: int, im_id: int) -> Path:
+    return Path(split_dir) / f"{scene_id:06d}" / ".done" / f"{im_id:06d}.json"
+
+
+def _bbox_xywh(mask: np.ndarray) -> list[int]:
+    ys, xs = np.nonzero(mask)
+    if len(xs) == 0:
+        return [-1, -1, -1, -1]
+    return [int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1)]
+
+
+def validate_pose(T: np.ndarray, corners_mm: np.ndarray) -> str | None:
+    """Reason why a pose cannot be rendered (NaN, behind the camera), or None."""
+    T = np.asarray(T, np.float64)
+    if not np.all(np.isfinite(T)):
+        return "pose has NaN/inf"
+    z = (corners_mm @ T[:3, :3].T + T[:3, 3])[:, 2]
+    if np.any(z <= 1.0):
+        return f"object (partly) behind the camera (t_z = {T[2, 3]:.1f} mm)"
+    return None
+
+
+def _fast_renderer(worker, meshes: dict):
+    """The per-process fast renderer with the (dilated) output models uploaded once."""
+    from ..io.mesh import load_mesh_mm
+    from ..render import Renderer
+    r = worker.cache.get("fast_renderer")
+    if r is None:
+        r = worker.cache["fast_renderer"] = Renderer()
+        worker.cache["fast_meshes"] = {}
+        worker.cache["corners"] = {}
+    loaded = worker.cache["fast_meshes"]
+    for key, spec in meshes.items():
+        if loaded.get(key) != spec["path"]:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                m = load_mesh_mm(spec["path"], float(spec.get("unit_scale", 1.0)))
+            r.add_mesh(key, m)
+            v = np.asarray(m.vertices)
+            lo, hi = v.min(0), v.max(0)
+            worker.cache["corners"][key] = np.array(
+                [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+            loaded[key] = spec["path"]
+    return r
+
+
+def _orig_visible(task: dict, obj: dict, label: np.ndarray | None, H: int, W: int) -> np.ndarray:
+    from ..io.images import read_mask
+    if label is not None:
+        return label == obj["obj_id"]
+    p = obj.get("mask_visib_path")
+    if p and Path(p).is_file():
+        return read_mask(p)
+    return np.zeros((H, W), bool)
+
+
+def process_frame(worker, config: dict, task: dict) -> dict:
+    """Synthesise one frame. ``config``: run-wide settings; ``task``: the frame. Returns the marker dict."""
+    from ..io.images import read_depth_mm, read_label, read_rgb
+    t0 = time.perf_counter()
+    split_dir = Path(config["split_dir"])
+    sid, iid = int(task["scene_id"]), int(task["im_id"])
+    wh = f"scene {sid} frame {iid}"
+    sdir = split_dir / f"{sid:06d}"
+    W, H = int(task.get("width", 640)), int(task.get("height", 480))
+    K = np.asarray(task["K"], np.float64).reshape(3, 3)
+    marker = {"scene_id": sid, "im_id": iid, "src_rgb": str(task["rgb_path"]), "warnings": []}
+    mpath = marker_path(split_dir, sid, iid)
+
+    def skip(reason: str) -> dict:
+        marker.update(skipped=reason, scene_gt=[], scene_camera=None, gt_info=[], objects=[])
+        from ..io.atomic import write_json_atomic
+        write_json_atomic(mpath, marker)
+        return marker
+
+    # ---- inputs
+    try:
+        rgb = read_rgb(task["rgb_path"], wh)
+        depth = read_depth_mm(task["depth_path"], float(task["depth_scale"]), wh) if task.get("depth_path") \
+            else np.zeros((H, W), np.float32)
+        label = read_label(task["label_path"], wh) if task.get("label_path") else None
+    except YcbvssError as e:
+        return skip(f"frame missing or corrupt: {e}")
+    if rgb.shape[:2] != (H, W) or depth.shape != (H, W):
+        return skip(f"image size {rgb.shape[1]}x{rgb.shape[0]} / depth {depth.shape[::-1]} != {W}x{H}")
+    meshes = config["meshes"]
+    fast = _fast_renderer(worker, meshes)
+    corners = worker.cache["corners"]
+    objs = []
+    for ob in task["objects"]:
+        key = f"obj_{int(ob['obj_id']):06d}"
+        if key not in meshes:
+            return skip(f"object {ob['obj_id']}: no model")
+        T = np.asarray(ob["T_m2c"], np.float64).reshape(4, 4)
+        why = validate_pose(T, corners[key])
+        if why is not None:
+            return skip(f"object {ob['obj_id']}: {why}")
+        objs.append({**ob, "key": key, "T": T})
+    # ---- full silhouettes (fast renderer) -> drop objects fully outside the image
+    t_gt0 = time.perf_counter()
+    out_all = fast.render(K, W, H, [(o["key"], o["T"]) for o in objs], outputs=("mask_all",)) if objs else None
+    kept = []
+    for k, o in enumerate(objs):
+        if not out_all.masks_all[k].any():
+            msg = f"{wh} object {o['obj_id']}: fully outside the image, skipped"
+            warnings.warn(msg, stacklevel=2)
+            marker["warnings"].append(msg)
+            continue
+        o["mask_all"] = out_all.masks_all[k]
+        kept.append(o)
+    t_gt = time.perf_counter() - t_gt0
+    # ---- Blender render of all objects together
+    rc = config["render"]
+    frame = {"id": f"{sid}_{iid}", "K": K.tolist(),
+             "objects": [{"mesh": o["key"], "pass_index": k + 1, "T_m2c": o["T"].tolist()}
+                         for k, o in enumerate(kept)]}
+    cfg = {**rc, "width": W, "height": H, "threads": int(config.get("threads", 0))}
+    if worker.cache.get("render_cfg") != cfg:
+        worker.configure(cfg)
+        worker.cache["render_cfg"] = cfg
+    seed = int(config["seed"])
+    res = worker.render(frame, meshes, frame_seed(seed, "cycles", sid, iid))
+    marker["warnings"] += list(worker.session.warnings)
+    worker.session.warnings[:] = []
+    t_render = res["render_s"]
+    # ---- composite, colour fit, noise
+    t_c0 = time.perf_counter()
+    rng = np.random.default_rng([seed, sid, iid])
+    cobjs = [CompositeObject(k + 1, int(o["obj_id"]), _orig_visible(task, o, label, H, W)) for k, o in enumerate(kept)]
+    noise = NoiseParams(**config.get("noise", {}))
+    out_rgb, cstats = composite_frame(rgb, res["rgba"], res["index"], cobjs, noise, rng,
+                                      fit=bool(config.get("colour_fit", True)),
+                                      fit_method=config.get("colour_fit_method", "mk"))
+    index = res["index"]
+    obj_px = index > 0
+    out_depth = merge_depth(depth, res["depth_mm"], obj_px & (res["depth_mm"] > 0))
+    t_comp = time.perf_counter() - t_c0
+    # ---- GT, files
+    t_w0 = time.perf_counter()
+    ds_out = float(task["depth_scale"])
+    files = FrameFiles(wh)
+    try:
+        files.png(sdir / "rgb" / f"{iid:06d}.png", out_rgb)
+        d = np.round(np.nan_to_num(out_depth, nan=0.0, posinf=0.0) / ds_out)
+        if d.max(initial=0) > 65535:
+            raise YcbvssError(f"depth exceeds uint16 range with depth_scale {ds_out}", sdir / "depth", wh)
+        files.png(sdir / "depth" / f"{iid:06d}.png", d.astype(np.uint16))
+        scene_gt, gt_info, objects = [], [], []
+        for k, o in enumerate(kept):
+            full = o["mask_all"]
+            visib = index == k + 1
+            files.png(sdir / "mask" / f"{iid:06d}_{k:06d}.png", full.astype(np.uint8) * 255)
+            files.png(sdir / "mask_visib" / f"{iid:06d}_{k:06d}.png", visib.astype(np.uint8) * 255)
+            T = o["T"]
+            scene_gt.append({"cam_R_m2c": T[:3, :3].reshape(-1).tolist(), "cam_t_m2c": T[:3, 3].tolist(),
+                             "obj_id": int(o["obj_id"])})
+            n_all, n_vis = int(full.sum()), int(visib.sum())
+            gt_info.append({"bbox_obj": _bbox_xywh(full), "bbox_visib": _bbox_xywh(visib),
+                            "px_count_all": n_all, "px_count_valid": int((full & (out_depth > 0)).sum()),
+                            "px_count_visib": n_vis, "visib_fract": float(n_vis / n_all) if n_all else 0.0})
+            objects.append({"obj_id": int(o["obj_id"]), "src_gt_idx": o.get("gt_idx"), **cstats[k]})
+        marker.update(scene_gt=scene_gt, gt_info=gt_info, objects=objects,
+                      scene_camera={"cam_K": K.reshape(-1).tolist(), "depth_scale": ds_out})
+        t_w = time.perf_counter() - t_w0
+        files.commit(mpath, marker)
+    except BaseException:
+        files.abort()
+        raise
+    marker["timing"] = {"render_s": t_render, "composite_s": t_comp, "gt_s": t_gt + t_w,
+                        "total_s": time.perf_counter() - t0}
+    return marker

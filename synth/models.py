@@ -1,0 +1,52 @@
+"""YCBV-SS models: input models recentred on their bounding-box centre (BOP convention) and
+enlarged by a per-object scale about that centre; poses re-expressed in the recentred frame.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def bbox_center_mm(vertices_mm: np.ndarray) -> np.ndarray:
+    v = np.asarray(vertices_mm, np.float64)
+    return (v.min(axis=0) + v.max(axis=0)) / 2.0
+
+
+def recentre_pose(T_m2c: np.ndarray, c_mm: np.ndarray) -> np.ndarray:
+    """Pose of the model recentred by ``X_c = X - c``: ``t' = t + R c``."""
+    T = np.array(T_m2c, np.float64, copy=True)
+    T[:3, 3] = T[:3, 3] + T[:3, :3] @ np.asarray(c_mm, np.float64)
+    return T
+
+
+def transform_symmetries(disc: list, cont: list, c_mm: np.ndarray, scale: float) -> tuple[list, list]:
+    """Symmetries of the input model frame -> recentred (by c) and scaled (by s) frame."""
+    c = np.asarray(c_mm, np.float64)
+    out_d = []
+    for S in disc:
+        S = np.asarray(S, np.float64).reshape(4, 4)
+        T = S.copy()
+        T[:3, 3] = (S[:3, :3] @ c + S[:3, 3] - c) * scale
+        out_d.append(T)
+    out_c = [{"axis": [float(a) for a in s["axis"]],
+              "offset": ((np.asarray(s.get("offset", (0, 0, 0)), np.float64) - c) * scale).tolist()} for s in cont]
+    return out_d, out_c
+
+
+def centred_mesh(model, c_mm: np.ndarray, scale: float = 1.0):
+    """A copy of ``model.mesh`` (mm) moved by -c and scaled by ``scale`` about the origin; texture kept."""
+    m = model.mesh.copy()
+    m.vertices = (np.asarray(m.vertices, np.float64) - np.asarray(c_mm, np.float64)) * float(scale)
+    return m
+
+
+def write_dilated_models(models_dir: str | Path, models: dict, centres: dict, scales: dict) -> dict:
+    """Write obj_XXXXXX.ply (+ .png texture) and models_info.json of the enlarged models."""
+    from ..io.bop import write_models
+    meshes, syms = {}, {}
+    for oid in sorted(scales):
+        m = models[oid]
+        meshes[oid] = centred_mesh(m, centres[oid], scales[oid])
+        syms[oid] = transform_symmetries(m.symmetries_discrete, m.symmetries_continuous, centres[oid], scales[oid])
+    return write_models(models_dir, meshes, symmetries=syms)

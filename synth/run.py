@@ -1,0 +1,368 @@
+"""``ycbvss synth``: build YCBV-SS (a BOP dataset) from real YCB-V frames.
+
+Stages: (1) open the input (YCB-Video layout or BOP split) and the poses (scene_gt or a refined
+BOP19 CSV); (2) per object, the smallest model scale on the grid covering >= 99.5 % of its original
+visible pixels; (3) write the enlarged models; (4) per scene, synthesise the frames that are not done
+yet (Blender workers, local or Ray), then assemble the scene JSONs from the frames' done markers;
+(5) write ``synth_report.json``. Streams scene by scene; every output is written atomically.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import warnings
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import YcbvssError
+from ..io.atomic import read_json, write_json_atomic
+from .coverage import SCALE_GRID, TARGET, choose_scale, covered_counts
+from .frame import marker_path
+from .frame_files import clean_temporaries
+from .models import bbox_center_mm, recentre_pose, write_dilated_models
+from .noise import NoiseParams
+
+STATE_DIR = ".synth_state"
+
+
+@dataclass
+class SynthOptions:
+    """All knobs of a run (everything that changes the output is recorded in the report)."""
+
+    seed: int = 0
+    samples: int = 8
+    denoise: bool = False
+    max_bounces: int = 1
+    lights: list | None = None
+    world_strength: float | None = None
+    noise: NoiseParams = field(default_factory=NoiseParams)
+    colour_fit: bool = True
+    colour_fit_method: str = "mk"          # "mk" (mean/covariance transfer) or "lsq"
+    scale_grid: tuple = SCALE_GRID
+    coverage_target: float = TARGET
+    coverage_stride: int = 1
+    scales: dict | None = None            # obj_id -> scale: skip the coverage search (e.g. tests)
+    frames: list | None = None            # restrict to these im_ids (every scene)
+    max_frames: int | None = None         # per scene, first N frames (after ``frames``)
+    workers: int | None = None
+    executor: str = "local"
+    address: str | None = None
+    chunk: int = 8
+
+    def render_settings(self) -> dict:
+        r = {"samples": self.samples, "denoise": self.denoise, "max_bounces": self.max_bounces}
+        if self.lights is not None:
+            r["lights"] = self.lights
+        if self.world_strength is not None:
+            r["world_strength"] = self.world_strength
+        return r
+
+
+# ------------------------------------------------------------------------------ input
+def is_ycbv_layout(root: Path) -> bool:
+    return (root / "data").is_dir() and (root / "models").is_dir() and not (root / "models" / "models_info.json").is_file()
+
+
+def open_input(dataset: str | Path, split: str, scenes: list[int] | None = None):
+    """The input as a streaming Dataset (YCB-Video root or BOP root + split) and its layout name."""
+    root = Path(dataset)
+    if not root.is_dir():
+        raise YcbvssError("input dataset not found", root)
+    if is_ycbv_layout(root):
+        from ..io.ycbv import load_ycbv_dataset
+        return load_ycbv_dataset(root, scenes), "ycbv"
+    from ..io.bop import load_dataset
+    return load_dataset(root, split, scene_ids=scenes), "bop"
+
+
+def load_pose_overrides(path: str | Path | None, obj_ids) -> dict:
+    """(scene_id, im_id, obj_id) -> T_m2c (mm, recentred BOP model frame) from a BOP19 CSV (best score)."""
+    if path is None:
+        return {}
+    from ..io.results import read_bop19_csv
+    best: dict = {}
+    for e in read_bop19_csv(path, obj_ids):
+        k = (e.scene_id, e.im_id, e.obj_id)
+        if k not in best or e.score > best[k][0]:
+            best[k] = (e.score, e.T_m2c)
+    return {k: v[1] for k, v in best.items()}
+
+
+def _select_frames(scene, opts: SynthOptions) -> list:
+    frames = scene.frames
+    if opts.frames is not None:
+        want = set(int(i) for i in opts.frames)
+        frames = [f for f in frames if f.im_id in want]
+    if opts.max_frames is not None:
+        frames = frames[: int(opts.max_frames)]
+    return frames
+
+
+def frame_task(frame, layout: str, centres: dict, overrides: dict) -> dict:
+    """The JSON task of one frame (paths, K, recentred poses) for the worker."""
+    objs = []
+    for k, inst in enumerate(frame.instances):
+        key = (frame.scene_id, frame.im_id, inst.obj_id)
+        T = overrides.get(key)
+        T = np.asarray(T, np.float64) if T is not None else recentre_pose(inst.T_m2c, centres[inst.obj_id])
+        gt_idx = inst.gt_id if inst.gt_id is not None else k
+        ob = {"obj_id": int(inst.obj_id), "T_m2c": T.tolist(), "gt_idx": int(gt_idx)}
+        if layout == "bop" and frame.rgb_path is not None:
+            ob["mask_visib_path"] = str(Path(frame.rgb_path).parent.parent / "mask_visib"
+                                        / f"{frame.im_id:06d}_{gt_idx:06d}.png")
+        objs.append(ob)
+    return {"scene_id": int(frame.scene_id), "im_id": int(frame.im_id), "rgb_path": str(frame.rgb_path),
+            "depth_path": None if frame.depth_path is None else str(frame.depth_path),
+            "label_path": None if frame.label_path is None else str(frame.label_path),
+            "K": frame.camera.K.tolist(), "depth_scale": float(frame.depth_scale),
+            "width": frame.camera.width, "height": frame.camera.height, "objects": objs}
+
+
+# ------------------------------------------------------------------------------ coverage
+def compute_coverage(ds, layout: str, centres: dict, overrides: dict, opts: SynthOptions,
+                     obj_ids: list[int]) -> dict:
+    """Per object: visible pixel total and covered counts at 1.0 and each grid scale (summed over frames)."""
+    from ..io.images import read_label, read_mask
+    from ..progress import progress
+    from ..render import Renderer
+    from .models import centred_mesh
+    r = Renderer()
+    for oid in obj_ids:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r.add_mesh(f"obj_{oid:06d}", centred_mesh(ds.models[oid], centres[oid]))
+    scales = (1.0,) + tuple(opts.scale_grid)
+    acc = {oid: {"total": 0, "covered": np.zeros(len(scales), np.int64)} for oid in obj_ids}
+    for scene in ds.iter_scenes():
+        frames = _select_frames(scene, opts)[:: max(1, int(opts.coverage_stride))]
+        for fr in progress(frames, desc=f"coverage scene {scene.scene_id}", unit="frame"):
+            task = frame_task(fr, layout, centres, overrides)
+            try:
+                label = read_label(task["label_path"]) if task["label_path"] else None
+            except YcbvssError:
+                continue
+            items, vis, oids = [], [], []
+            for ob in task["objects"]:
+                T = np.asarray(ob["T_m2c"])
+                if not np.all(np.isfinite(T)) or T[2, 3] <= 0:
+                    continue
+                if label is not None:
+                    v = label == ob["obj_id"]
+                elif ob.get("mask_visib_path") and Path(ob["mask_visib_path"]).is_file():
+                    v = read_mask(ob["mask_visib_path"])
+                else:
+                    continue
+                items.append((f"obj_{ob['obj_id']:06d}", T))
+                vis.append(v)
+                oids.append(ob["obj_id"])
+            cov = covered_counts(r, np.asarray(task["K"]), task["width"], task["height"], items, vis, scales)
+            for k, oid in enumerate(oids):
+                acc[oid]["total"] += int(vis[k].sum())
+                acc[oid]["covered"] += cov[k]
+    out = {}
+    for oid, a in acc.items():
+        tot = max(a["total"], 1)
+        out[oid] = {"visible_px": a["total"], "coverage_by_scale": {f"{s:g}": round(float(c) / tot, 6)
+                                                                  for s, c in zip(scales, a["covered"])},
+                    "covered": a["covered"].tolist()}
+    return out
+
+
+# ------------------------------------------------------------------------------ scene JSONs / report
+def assemble_scene(split_dir: Path, scene_id: int) -> dict:
+    """Write scene_gt/scene_camera/scene_gt_info.json from the scene's done markers; returns the markers."""
+    sdir = split_dir / f"{scene_id:06d}"
+    markers = {}
+    done = sdir / ".done"
+    for p in sorted(done.glob("[0-9]*.json")) if done.is_dir() else []:
+        m = read_json(p, "frame done marker")
+        markers[int(m["im_id"])] = m
+    ok = {i: m for i, m in sorted(markers.items()) if not m.get("skipped")}
+    write_json_atomic(sdir / "scene_gt.json", {str(i): m["scene_gt"] for i, m in ok.items()})
+    write_json_atomic(sdir / "scene_camera.json", {str(i): m["scene_camera"] for i, m in ok.items()})
+    write_json_atomic(sdir / "scene_gt_info.json", {str(i): m["gt_info"] for i, m in ok.items()})
+    return markers
+
+
+def _versions() -> dict:
+    from importlib.metadata import PackageNotFoundError, version
+    from .. import __version__
+    try:
+        bpy_v = version("bpy")
+    except PackageNotFoundError:
+        bpy_v = "unknown"
+    return {"ycbvss": __version__, "blender_bpy": bpy_v}
+
+
+def _fingerprint(obj) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def build_report(inputs: dict, opts: SynthOptions, models_state: dict, all_markers: dict, names: dict) -> dict:
+    per_obj: dict = {}
+    skipped, warns = [], []
+    n_done = 0
+    for (sid, iid), m in sorted(all_markers.items()):
+        warns += m.get("warnings", [])
+        if m.get("skipped"):
+            skipped.append({"scene_id": sid, "im_id": iid, "reason": m["skipped"]})
+            continue
+        n_done += 1
+        for ob in m.get("objects", []):
+            d = per_obj.setdefault(ob["obj_id"], {"dE_before": [], "dE_after": [], "dE_final": [], "M": [], "b": [],
+                                                  "n_instances": 0})
+            d["n_instances"] += 1
+            if ob.get("dE_before") is not None:
+                for k in ("dE_before", "dE_after", "dE_final", "M", "b"):
+                    d[k].append(ob[k])
+    objects = {}
+    for oid, st in sorted(models_state["objects"].items(), key=lambda kv: int(kv[0])):
+        oid = int(oid)
+        d = per_obj.get(oid, {})
+        e = {"name": names.get(oid, ""), **st}
+        if d.get("dE_before"):
+            e.update(n_instances=d["n_instances"], dE_before=round(float(np.mean(d["dE_before"])), 4),
+                     dE_after=round(float(np.mean(d["dE_after"])), 4),
+                     dE_final=round(float(np.mean(d["dE_final"])), 4),
+                     colour_fit_improved=bool(np.mean(d["dE_after"]) < np.mean(d["dE_before"])),
+                     colour_fit_median={"M": np.round(np.median(np.asarray(d["M"]), axis=0), 5).tolist(),
+                                        "b": np.round(np.median(np.asarray(d["b"]), axis=0), 5).tolist()})
+        objects[str(oid)] = e
+    return {
+        "versions": _versions(),
+        "input": inputs,
+        "seed": opts.seed,
+        "seeds": {"cycles": "sha256('{seed}/cycles/{scene_id}/{im_id}')[:4] & 0x7fffffff",
+                  "noise": "numpy.random.default_rng([seed, scene_id, im_id])"},
+        "render": {"engine": "CYCLES", "device": "CPU", **opts.render_settings()},
+        "noise": opts.noise.to_dict(),
+        "colour_fit": {"enabled": opts.colour_fit, "method": opts.colour_fit_method,
+                       "model": "linear RGB: M (3x3) @ render + b; mk = mean/covariance (Monge-Kantorovich) "
+                                "transfer, least squares where mk does not lower dE"},
+        "scale_grid": list(opts.scale_grid),
+        "coverage_target": opts.coverage_target,
+        "coverage_stride": opts.coverage_stride,
+        "objects": objects,
+        "frames": {"done": n_done, "skipped": skipped},
+        "warnings": sorted(set(warns)),
+    }
+
+
+# ------------------------------------------------------------------------------ main entry
+def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int] | None = None,
+              poses: str | Path | None = None, opts: SynthOptions | None = None, executor=None) -> dict:
+    """Synthesise YCBV-SS into the BOP root ``out`` (resumable); returns the report dict."""
+    from ..progress import progress
+    from .executors import make_executor
+    opts = opts or SynthOptions()
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise YcbvssError(f"output folder not writable: {e.strerror}", out) from None
+    ds, layout = open_input(dataset, split, scenes)
+    split_dir = out / split
+    clean_temporaries(out)
+    # ---- objects, centres, poses
+    obj_ids = sorted({i.obj_id for sc in ds.iter_scenes() for f in _select_frames(sc, opts) for i in f.instances})
+    if not obj_ids:
+        raise YcbvssError("no annotated objects in the selected frames", ds.root)
+    overrides = load_pose_overrides(poses, ds.models.keys())
+    centres = {}
+    for oid in obj_ids:
+        if oid not in ds.models:
+            raise YcbvssError(f"object {oid}: no model", ds.root / "models")
+        centres[oid] = bbox_center_mm(ds.models[oid].vertices_mm)
+    inputs = {"dataset": str(Path(dataset).resolve()), "layout": layout, "split": split,
+              "scenes": ds.scene_ids, "poses": None if poses is None else str(Path(poses).resolve()),
+              "frames": opts.frames, "max_frames": opts.max_frames}
+    # ---- coverage + scales (cached in the state folder for resume)
+    state_dir = out / STATE_DIR
+    cov_key = _fingerprint([inputs, list(opts.scale_grid), opts.coverage_stride, obj_ids])
+    cov_file = state_dir / f"coverage_{cov_key}.json"
+    if cov_file.is_file():
+        coverage = {int(k): v for k, v in read_json(cov_file).items()}
+    else:
+        coverage = compute_coverage(ds, layout, centres, overrides, opts, obj_ids)
+        write_json_atomic(cov_file, {str(k): v for k, v in coverage.items()})
+    models_state = {"objects": {}}
+    scales = {}
+    for oid in obj_ids:
+        c = coverage[oid]
+        if opts.scales and oid in opts.scales:
+            s = float(opts.scales[oid])
+            grid = (1.0,) + tuple(opts.scale_grid)
+            cov_after = c["coverage_by_scale"].get(f"{s:g}")
+            flagged = cov_after is not None and cov_after < opts.coverage_target
+        else:
+            s, cov_after, flagged = choose_scale(np.asarray(c["covered"][1:]), c["visible_px"],
+                                                 tuple(opts.scale_grid), opts.coverage_target)
+        if flagged:
+            warnings.warn(f"object {oid}: coverage {cov_after:.4f} < {opts.coverage_target} even at scale {s}",
+                          stacklevel=2)
+        scales[oid] = s
+        models_state["objects"][oid] = {
+            "scale": s, "centre_mm": np.round(centres[oid], 6).tolist(), "visible_px": c["visible_px"],
+            "coverage_before": c["coverage_by_scale"]["1"],
+            "coverage_after": None if cov_after is None else round(float(cov_after), 6),
+            "coverage_by_scale": c["coverage_by_scale"], "flagged": bool(flagged)}
+    models_dir = out / "models"
+    mkey = _fingerprint([{str(k): v for k, v in scales.items()}, {str(k): c.tolist() for k, c in centres.items()},
+                         [str(ds.models[o].path) for o in obj_ids]])
+    mstate = state_dir / f"models_{mkey}.done"
+    if not mstate.is_file() or not (models_dir / "models_info.json").is_file():
+        write_dilated_models(models_dir, ds.models, centres, scales)
+        write_json_atomic(mstate, {"scales": {str(k): v for k, v in scales.items()}})
+    config = {"split_dir": str(split_dir), "seed": int(opts.seed), "render": opts.render_settings(),
+              "noise": opts.noise.to_dict(), "colour_fit": opts.colour_fit,
+              "colour_fit_method": opts.colour_fit_method,
+              "meshes": {f"obj_{o:06d}": {"path": str((models_dir / f"obj_{o:06d}.ply").resolve())}
+                         for o in obj_ids}}
+    # ---- frames
+    own_exec = executor is None
+    ex = executor or make_executor(opts.executor, opts.workers, opts.address, opts.chunk)
+    all_markers = {}
+    timing = {"render_s": 0.0, "composite_s": 0.0, "gt_s": 0.0, "total_s": 0.0, "n": 0}
+    try:
+        scene_ids = ds.scene_ids
+        for sid in scene_ids:
+            scene = ds.load_scene(sid)
+            frames = _select_frames(scene, opts)
+            todo = [frame_task(f, layout, centres, overrides) for f in frames
+                    if not marker_path(split_dir, sid, f.im_id).is_file()]
+            bar = progress(total=len(frames), desc=f"synth scene {sid}", unit="frame", initial=len(frames) - len(todo))
+
+            def on_result(r):
+                bar.update(1)
+                if r.get("timing"):
+                    for k in ("render_s", "composite_s", "gt_s", "total_s"):
+                        timing[k] += r["timing"][k]
+                    timing["n"] += 1
+                for w in r.get("warnings", []):
+                    print(f"ycbvss synth: warning: {w}", file=sys.stderr)
+                if r.get("skipped"):
+                    print(f"ycbvss synth: warning: scene {r['scene_id']} frame {r['im_id']} skipped: "
+                          f"{r['skipped']}", file=sys.stderr)
+
+            try:
+                ex.map(config, todo, on_result)
+            finally:
+                bar.close()
+            markers = assemble_scene(split_dir, sid)
+            want = {f.im_id for f in frames}
+            all_markers.update({(sid, i): m for i, m in markers.items() if i in want})
+    finally:
+        if own_exec:
+            ex.close()
+    report = build_report(inputs, opts, models_state, all_markers, {o: ds.models[o].name for o in obj_ids})
+    write_json_atomic(out / "synth_report.json", report)
+    if timing["n"]:
+        n = timing["n"]
+        print(f"ycbvss synth: {n} frames synthesised; per frame (worker time): render "
+              f"{timing['render_s'] / n:.2f} s, composite {timing['composite_s'] / n:.2f} s, "
+              f"GT+files {timing['gt_s'] / n:.2f} s, total {timing['total_s'] / n:.2f} s", file=sys.stderr)
+    report["_timing"] = timing
+    return report
