@@ -82,7 +82,7 @@ def add_adds_mm(R_est, t_est, R_gt, t_gt, points: ModelPoints | np.ndarray, with
     n = len(A)
     add = np.empty(n)
     adds = np.full(n, np.nan)
-    step = _chunk_size(mp.n, 8 * max(8, 2 * mp.k if with_adds else 0), chunk_bytes)
+    step = _chunk_size(mp.n, 128, chunk_bytes)
     for s in range(0, n, step):
         sl = slice(s, min(n, s + step))
         a_, s_ = mp.add_adds(A[sl], b[sl], with_adds=with_adds)

@@ -37,6 +37,7 @@ class ModelPoints:
         self._tree = None
         self._fast = None
         self.stats = {"certified": 0, "tree": 0}   # point queries answered by each path
+        self.sub_batch_bytes = 8 * 2**20              # size of the (poses, P, k) score block
 
     @property
     def tree(self):
@@ -50,12 +51,14 @@ class ModelPoints:
             k, pts = self.k, self.points
             dist, idx = self.tree.query(pts, k=k + 1, workers=self.workers)
             rho = dist[:, k]
-            C = pts[idx[:, :k]]                                    # (P, k, 3)
-            F = np.concatenate([(C[:, :, :, None] * pts[:, None, None, :]).reshape(self.n, k, 9), C],
-                               axis=2).reshape(self.n * k, 12)
-            FT = np.ascontiguousarray(F.T)                          # (12, P k)
-            c2 = np.einsum("pkd,pkd->pk", C, C).reshape(-1)
-            self._fast = (C, rho, FT, c2, float(np.median(rho)))
+            C = pts[idx[:, :k]]                                    # (P, k, 3) candidates
+            U = C - pts[:, None, :]                                 # offsets from x_i (small)
+            # E_ij = |u|^2 - 2 (y_i - x_i).u = |y_i - c_ij|^2 - |y_i - x_i|^2, and
+            # (y_i - x_i).u = vec(A - I).vec(u x_i^T) + b.u: linear in theta = (A - I, b)
+            F = np.concatenate([-2.0 * (U[:, :, :, None] * pts[:, None, None, :]).reshape(self.n, k, 9),
+                                -2.0 * U, np.einsum("pkd,pkd->pk", U, U)[:, :, None]], axis=2)
+            FT = np.ascontiguousarray(F.reshape(self.n * k, 13).T)   # (13, P k)
+            self._fast = (U, rho, FT, float(np.median(rho)))
         return self._fast
 
     def transformed(self, A: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -76,26 +79,21 @@ class ModelPoints:
         add = delta.mean(axis=1)
         if not with_adds:
             return add, None
-        n = len(A)
         d = np.empty_like(delta)
         todo = np.ones(delta.shape, dtype=bool)
         if self.k > 0:
-            C, rho, FT, c2, rho_med = self._fast_data()
+            U, rho, FT, rho_med = self._fast_data()
             fast = np.flatnonzero(add < rho_med)                    # poses where candidates help
-            if len(fast):
-                Af, bf = A[fast], b[fast]
-                theta = np.concatenate([Af.reshape(-1, 9), bf], axis=1)
-                E = theta @ FT                                      # (m, P k): y.c
-                E *= -2.0
-                E += c2
-                j = E.reshape(len(fast), self.n, self.k).argmin(axis=-1)
-                del E
-                Yf = Y[fast]
-                G = Yf - C[np.arange(self.n)[None, :], j]
+            step = max(1, self.sub_batch_bytes // (8 * self.n * self.k))
+            rows = np.arange(self.n)[None, :]
+            for s in range(0, len(fast), step):
+                f = fast[s:s + step]
+                theta = np.concatenate([(A[f] - np.eye(3)).reshape(-1, 9), b[f], np.ones((len(f), 1))], axis=1)
+                j = (theta @ FT).reshape(len(f), self.n, self.k).argmin(axis=-1)
+                G = D[f] - U[rows, j]                               # y - c for the chosen candidates
                 df = np.sqrt(np.einsum("npi,npi->np", G, G))
-                ok = df <= (rho[None, :] - delta[fast]) * (1.0 - 1e-12)
-                d[fast] = df
-                todo[fast] = ~ok
+                d[f] = df
+                todo[f] = df > (rho[None, :] - delta[f]) * (1.0 - 1e-12)
         n_tree = int(todo.sum())
         self.stats["tree"] += n_tree
         self.stats["certified"] += todo.size - n_tree

@@ -126,3 +126,15 @@ def test_options_validation():
         EvalOptions(add_bound_mm=0)
     with pytest.raises(YcbvssError):
         EvalOptions(adds_for="some")
+
+
+def test_evaluate_arrays_no_estimates_scores_zero():
+    rng = np.random.default_rng(6)
+    models = {1: _model(1, rng.normal(size=(50, 3)) * 20.0)}
+    gt = GtArrays(np.array([1, 1]), np.array([1, 2]), np.array([1, 1]), np.array([0, 0]),
+                  np.stack([np.eye(3)] * 2), np.array([[0, 0, 500.0], [0, 0, 600.0]]),
+                  np.broadcast_to(K, (2, 3, 3)).copy())
+    res = evaluate_arrays(gt, EstArrays.from_estimates([]), models)
+    s = res.summary
+    assert s["add_auc"] == 0.0 and s["prj_auc"] == 0.0 and s["sr_5cm5deg"] == 0.0
+    assert s["counts"]["n_gt_missing"] == 2 and np.all(np.isnan(res.errors["add_mm"]))
