@@ -50,6 +50,7 @@ class RefineOptions:
     edge_curv_floor: float = 1.0
     edge_norm_percentile: float = 99.0
     n_matches: int = 1000
+    match_erode_px: int = 6
     rho: float = 0.25
     temporal_neighbours: int = 1
     min_visible_px: int = 30
@@ -143,9 +144,9 @@ class _Stage:
                 objs = [j for j in vr.obj_index if (i, j) in vis]
                 if not objs:
                     continue
-                tmpl = normalize_for_flow(composite(vr, pb.views[i].image))
-                masks = [object_mask(vr, j) for j in objs]
-                matches = flow_matches(tmpl, self.norm_image(i), masks, opt.flow)
+                raw = composite(vr, pb.views[i].image)
+                masks = [object_mask(vr, j, opt.match_erode_px) for j in objs]
+                matches = flow_matches(normalize_for_flow(raw), self.norm_image(i), masks, opt.flow, corner_image=raw)
                 for j, (xs, xd) in zip(objs, matches):
                     if len(xs) == 0:
                         continue
@@ -172,9 +173,9 @@ class _Stage:
                     self._flows[(k, i)] = (dense_flow(a, b, opt.flow), dense_flow(b, a, opt.flow))
                 m = np.zeros(vr.instance.shape, bool)
                 for j in vr.obj_index:
-                    m |= object_mask(vr, j)
-                (xs, xd), = flow_matches(pb.views[k].image, pb.views[i].image, [m], opt.flow,
-                                         flows=self._flows[(k, i)])
+                    m |= object_mask(vr, j, opt.match_erode_px)
+                (xs, xd), = flow_matches(None, None, [m], opt.flow, flows=self._flows[(k, i)],
+                                         corner_image=pb.views[k].image)
                 if len(xs) == 0:
                     continue
                 xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]

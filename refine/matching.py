@@ -25,6 +25,7 @@ class FlowOptions:
     max_corners: int = 1000
     quality: float = 0.01
     min_distance_px: int = 3
+    min_eig: float = 1e-3         # absolute Shi-Tomasi threshold (cv2.cornerMinEigenVal, block 3) on the raw image
 
 
 def _gray_u8(img: np.ndarray) -> np.ndarray:
@@ -44,10 +45,17 @@ def corners(img: np.ndarray, mask: np.ndarray | None, opt: FlowOptions, max_n: i
     """Shi-Tomasi corners (N, 2) float64 of an image inside ``mask``."""
     if mask is not None and not np.any(mask):
         return np.zeros((0, 2))
-    pts = cv2.goodFeaturesToTrack(_gray_u8(img), maxCorners=int(max_n or opt.max_corners), qualityLevel=opt.quality,
+    g = _gray_u8(img)
+    pts = cv2.goodFeaturesToTrack(g, maxCorners=int(max_n or opt.max_corners), qualityLevel=opt.quality,
                                   minDistance=opt.min_distance_px,
                                   mask=None if mask is None else mask.astype(np.uint8))
-    return np.zeros((0, 2)) if pts is None else pts.reshape(-1, 2).astype(np.float64)
+    if pts is None:
+        return np.zeros((0, 2))
+    pts = pts.reshape(-1, 2).astype(np.float64)
+    if opt.min_eig > 0:   # absolute threshold: a uniform (textureless) region yields no corners at all
+        me = cv2.cornerMinEigenVal(g, 3, 3)
+        pts = pts[me[pts[:, 1].astype(int), pts[:, 0].astype(int)] >= opt.min_eig]
+    return pts
 
 
 def reciprocal_matches(pts: np.ndarray, fwd: np.ndarray, bwd: np.ndarray, check_px: float
@@ -66,17 +74,17 @@ def reciprocal_matches(pts: np.ndarray, fwd: np.ndarray, bwd: np.ndarray, check_
 
 
 def flow_matches(src: np.ndarray, dst: np.ndarray, src_masks: list[np.ndarray], opt: FlowOptions,
-                 flows: tuple[np.ndarray, np.ndarray] | None = None
+                 flows: tuple[np.ndarray, np.ndarray] | None = None, corner_image: np.ndarray | None = None
                  ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Matches src -> dst at corners of ``src`` inside each mask of ``src_masks`` (one list entry per mask).
-
-    ``flows`` = (fwd, bwd) may be passed to reuse computed flows."""
+    """Matches src -> dst at corners of ``corner_image`` (default ``src``) inside each mask of
+    ``src_masks`` (one list entry per mask). ``flows`` = (fwd, bwd) may be passed to reuse flows."""
     if flows is None:
         flows = (dense_flow(src, dst, opt), dense_flow(dst, src, opt))
     fwd, bwd = flows
+    ci = src if corner_image is None else corner_image
     out = []
     for m in src_masks:
-        out.append(reciprocal_matches(corners(src, m, opt), fwd, bwd, opt.check_px))
+        out.append(reciprocal_matches(corners(ci, m, opt), fwd, bwd, opt.check_px))
     return out
 
 
