@@ -44,8 +44,13 @@ def visible_mask(front_mask: np.ndarray, depth_render_mm: np.ndarray,
     return front_mask & ok
 
 
-def _geometry_only(mesh):
+def _geometry_only(model: ObjectModel):
+    """Untextured geometry in mm (no texture decoding when the mesh is not loaded yet)."""
     import trimesh
+    if model._mesh is None and model._loader is None and model.path is not None:
+        from .io.mesh import load_geometry_mm
+        return load_geometry_mm(model.path, model.unit_scale)
+    mesh = model.mesh
     return trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=False)
 
 
@@ -59,7 +64,7 @@ def ensure_meshes(renderer, models: dict[int, ObjectModel], obj_ids) -> None:
     for oid in sorted(set(obj_ids)):
         key = mesh_key(models[oid])
         if not renderer.has_mesh(key):
-            renderer.add_mesh(key, _geometry_only(models[oid].mesh))
+            renderer.add_mesh(key, _geometry_only(models[oid]))
 
 
 def _bbox_obj_large(renderer, K: np.ndarray, width: int, height: int, key, T: np.ndarray) -> list[int]:

@@ -58,7 +58,7 @@ def make_bop(bop_models_root: Path, root: Path, rgb_dir: str = "rgb", ext: str =
 
 @pytest.fixture()
 def bop(bop_models_root, tmp_path):
-    return make_bop(bop_models_root, tmp_path / "bop")
+    return make_bop(bop_models_root, tmp_path / "ycbv_bop")
 
 
 def test_round_trip_exact(bop):
@@ -79,6 +79,14 @@ def test_round_trip_exact(bop):
     assert (bop / "test/000048/mask/000002_000001.png").is_file()
     assert (bop / "test/000048/mask_visib/000003_000000.png").is_file()
     assert not list((bop / "test/000048").rglob(".tmp-*"))
+
+
+def test_names_only_for_ycb_video_model_folders(bop, tmp_path):
+    other = tmp_path / "lm"
+    shutil.copytree(bop / "models", other / "models")
+    assert load_models(other / "models")[1].name == ""                   # not YCB-V: no YCB names
+    (other / "camera_uw.json").write_text("{}")                           # a BOP ycbv root marker
+    assert load_models(other / "models")[1].name == "002_master_chef_can"
 
 
 @pytest.mark.parametrize("rgb_dir, ext", [("gray", "png"), ("rgb", "jpg")])

@@ -58,10 +58,18 @@ def _floats(x, n: int, path, where: str, name: str) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------ models
-def _names_for(obj_ids: Iterable[int], names) -> dict[int, str]:
+def is_ycbv_models_dir(models_dir: Path) -> bool:
+    """A YCB-V model folder: 'ycbv' in its path, or camera_uw/cmu.json beside it (BOP ycbv root)."""
+    p = Path(models_dir).resolve()
+    if any("ycbv" in part.lower() for part in p.parts[-2:]):
+        return True
+    return any((p.parent / f"camera_{c}.json").is_file() for c in ("uw", "cmu"))
+
+
+def _names_for(obj_ids: Iterable[int], names, models_dir: Path) -> dict[int, str]:
     if isinstance(names, dict):
         return {int(k): v for k, v in names.items()}
-    if names == "auto":
+    if names == "auto" and is_ycbv_models_dir(models_dir):
         from ..manifest import object_names
         man = object_names()
         ids = set(obj_ids)
@@ -104,8 +112,8 @@ def load_models(models_dir: str | Path, symmetric_obj_ids: Iterable[int] = (13,)
                 names: dict | str | None = "auto", check_files: bool = True) -> dict[int, ObjectModel]:
     """BOP models: models_info.json + obj_XXXXXX.ply (mm) -> {obj_id: ObjectModel}.
 
-    ``names="auto"``: YCB names/textureless flags from the assets manifest when every obj_id is
-    a YCB-V id (1..21). Missing models_info.json: info is computed from the PLY files (warning).
+    ``names="auto"``: YCB names/textureless flags from the assets manifest for a YCB-V model folder
+    (see :func:`is_ycbv_models_dir`) whose obj_ids are all YCB-V ids (1..21); a dict sets names. Missing models_info.json: info is computed from the PLY files (warning).
     """
     from ..manifest import object_entries
     models_dir = Path(models_dir)
@@ -126,7 +134,7 @@ def load_models(models_dir: str | Path, symmetric_obj_ids: Iterable[int] = (13,)
             if infos[oid]["diameter"] < 1.0:
                 raise YcbvssError(f"diameter {infos[oid]['diameter']:g} < 1: model apparently in metres",
                                   p, fmt_where(obj_id=oid))
-    nm = _names_for(infos, names)
+    nm = _names_for(infos, names, models_dir)
     ent = object_entries() if nm else {}
     sym = set(int(i) for i in (symmetric_obj_ids or ()))
     models = {}

@@ -96,6 +96,23 @@ def load_mesh_mm(path, unit_scale: float = 1.0):
     return mesh
 
 
+def load_geometry_mm(path, unit_scale: float = 1.0):
+    """Vertices and faces only (no texture decoding) as a ``trimesh.Trimesh`` in mm."""
+    import trimesh
+
+    path = _check_file(path, "model file")
+    try:
+        mesh = trimesh.load(str(path), process=False, force="mesh", skip_materials=True)
+    except Exception as e:  # trimesh raises many types on corrupt files
+        raise YcbvssError(f"cannot read mesh ({type(e).__name__}: {e})", path) from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.vertices) == 0 or len(mesh.faces) == 0:
+        raise YcbvssError("mesh file contains no triangle mesh", path)
+    v = np.asarray(mesh.vertices, dtype=np.float64) * float(unit_scale)
+    if not np.all(np.isfinite(v)):
+        raise YcbvssError("mesh has NaN/inf vertices", path)
+    return trimesh.Trimesh(v, np.asarray(mesh.faces), process=False)
+
+
 def _ply_vertices(path: Path) -> np.ndarray:
     """Read the x/y/z of the ``vertex`` element of an ASCII or binary PLY, as stored."""
     with open(path, "rb") as f:
