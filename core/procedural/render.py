@@ -30,11 +30,12 @@ def _renderer(scene: ProceduralScene, renderer=None):
 
 def render_frame_fast(scene: ProceduralScene, frame, renderer=None, ambient: float = 0.35,
                       diffuse: float = 0.75, noise_sigma: float = 0.0, rng: np.random.Generator | None = None,
-                      with_table: bool = True):
+                      with_table: bool = True, with_objects: bool = True):
     """Render one frame: returns (rgb uint8 (H,W,3), depth_mm float32 (H,W), instance int32 (H,W))
     where ``instance`` is obj_id per pixel (0 = table/background)."""
     r = _renderer(scene, renderer)
-    items = [(("procedural", scene.seed, i.obj_id), i.T_m2c) for i in frame.instances]
+    insts = frame.instances if with_objects else []
+    items = [(("procedural", scene.seed, i.obj_id), i.T_m2c) for i in insts]
     if with_table:
         items.append(((TABLE_KEY, scene.seed), frame.T_w2c))
     cam = frame.camera
@@ -50,7 +51,7 @@ def render_frame_fast(scene: ProceduralScene, frame, renderer=None, ambient: flo
         rng = rng if rng is not None else np.random.default_rng(scene.seed * 1000 + frame.im_id)
         rgb = rgb + rng.normal(0.0, noise_sigma, rgb.shape)
     rgb = np.clip(np.round(rgb), 0, 255).astype(np.uint8)
-    inst_ids = np.array([0] + [i.obj_id for i in frame.instances] + ([0] if with_table else []), np.int32)
+    inst_ids = np.array([0] + [i.obj_id for i in insts] + ([0] if with_table else []), np.int32)
     obj_map = inst_ids[out.instance]
     depth = out.depth_mm.astype(np.float32)
     return rgb, depth, obj_map
