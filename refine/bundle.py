@@ -39,16 +39,17 @@ class RefineOptions:
     use_edge: bool = True
     use_point: bool = True
     use_temporal: bool = True
-    alpha: float = 1.0
+    alpha: float = 5.0
     beta: float = 1.0
     keyframe_step: int = 0
-    max_iters: int = 3
+    max_iters: int = 6
+    coarse_iters: int = 2
     inner_iters: int = 4
     edge_sigmas_px: tuple[float, ...] = (4.0, 2.0, 1.0)
     nonkey_sigmas_px: tuple[float, ...] = (2.0, 1.0)
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
-    edge_norm_percentile: float = 99.0
+    edge_norm_percentile: float = 100.0
     n_matches: int = 1000
     match_erode_px: int = 6
     rho: float = 0.25
@@ -56,6 +57,7 @@ class RefineOptions:
     min_visible_px: int = 30
     n_init_points: int = 200
     compute_uncertainty: bool = True
+    fix_cameras: bool = False         # keep the cameras given by the frames' T_w2c (known camera poses)
     pose_tol_mm: float = 0.01
     pose_tol_deg: float = 0.005
     seed: int = 0
@@ -192,11 +194,12 @@ class _Stage:
         terms = []
         sopt = SolverOptions(max_iters=opt.inner_iters)
         lam = None
-        for sigma in sigmas:
+        for li, sigma in enumerate(sigmas):
+            n_outer = opt.max_iters if li == len(sigmas) - 1 else min(opt.coarse_iters, opt.max_iters)
             t0 = time.perf_counter()
             fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
-            for outer in range(opt.max_iters):
+            for outer in range(n_outer):
                 renders = {i: self.render(i) for i in self.term_views}
                 terms = self.build_terms(fields, renders)
                 terms = [t for t in terms if t.groups]
@@ -301,7 +304,19 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
 
     n = len(views)
     kf = _keyframes(n, opt.keyframe_step)
-    pb = BundleProblem([views[i] for i in kf], obj_ids, pb0.T_c[kf], pb0.T_m, obj_free=known)
+    if opt.fix_cameras:
+        if any(f.T_w2c is None for f in frames):
+            raise YcbvssError("fix_cameras needs T_w2c for every frame", where=f"scene {scene.scene_id}")
+        T0inv = inv_T(np.asarray(frames[0].T_w2c, dtype=np.float64))
+        Tc_known = np.stack([np.asarray(f.T_w2c, dtype=np.float64) @ T0inv for f in frames])
+        # objects: average the init over views in the known camera frames (first view's camera = world)
+        for j, o in enumerate(obj_ids):
+            cands = [inv_T(Tc_known[i]) @ T for (i, jj), T in obs.items() if jj == j]
+            if cands:
+                pb0.T_m[j] = cands[0]
+        pb0.T_c = Tc_known
+    cam_free_kf = np.zeros(len(kf), bool) if opt.fix_cameras else None
+    pb = BundleProblem([views[i] for i in kf], obj_ids, pb0.T_c[kf], pb0.T_m, cam_free=cam_free_kf, obj_free=known)
     pb.obj_known = known
     stage = _Stage(pb, models, opt, log, stats, list(range(len(kf))),
                    _pairs(list(range(len(kf))), opt.temporal_neighbours) if len(kf) > 1 else [], "keyframes")
@@ -330,7 +345,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                         cross[(i, j)] = cov_kf[6 * c:6 * c + 6, 6 * b:6 * b + 6]
 
     nonkey = [i for i in range(n) if i not in set(kf)]
-    if nonkey:
+    if nonkey and not opt.fix_cameras:
         for i in nonkey:   # SE(3) interpolation of the keyframe corrections
             a = max(k for k in kf if k < i)
             b = min(k for k in kf if k > i)
