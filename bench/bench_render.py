@@ -28,10 +28,22 @@ def load_models():
     for name in NAMES:
         m = trimesh.load(MODELS / name / "textured.obj", force="mesh", process=False)
         m.apply_scale(1000.0)  # metres -> mm
-        if len(m.faces) > 1.1 * TARGET_FACES:
-            m = m.simplify_quadric_decimation(face_count=TARGET_FACES)
+        if len(m.faces) > 1.1 * TARGET_FACES:  # (the YCB-V Google-16k meshes all have 16384 faces)
+            m = decimate(m, TARGET_FACES)
         meshes[name] = m
     return meshes
+
+
+def decimate(mesh, faces: int):
+    """Quadric edge-collapse decimation with pymeshlab (geometry only: the result is rendered grey)."""
+    import pymeshlab
+    import trimesh
+
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int32)))
+    ms.meshing_decimation_quadric_edge_collapse(targetfacenum=int(faces), preservenormal=True)
+    m = ms.current_mesh()
+    return trimesh.Trimesh(m.vertex_matrix(), m.face_matrix(), process=False)
 
 
 def scene_poses(rng: np.random.Generator) -> list[np.ndarray]:

@@ -311,6 +311,18 @@ def test_headlight_shading_darkens_grazing_surfaces(r):
     assert out1.color[ys[rim], xs[rim], 0].mean() < 0.5 * out0.color[ys[rim], xs[rim], 0].mean()
 
 
+def test_mirrored_pose_keeps_surfaces_and_string_outputs(r):
+    T = pose((0.2, 0.1, 0.0), (0, 0, 500.0))
+    M = T.copy()
+    M[:3, 0] *= -1  # reflection x -> -x of the (symmetric) sphere: same surface, flipped winding
+    a = r.render(K0, W0, H0, [("sphere", T)], outputs="depth")
+    b = r.render(K0, W0, H0, [("sphere", M)], outputs="depth")
+    assert a.instance is None and a.depth_mm is not None
+    assert ((a.depth_mm > 0) != (b.depth_mm > 0)).sum() <= 4
+    both = (a.depth_mm > 0) & (b.depth_mm > 0)
+    assert np.median(np.abs(a.depth_mm[both] - b.depth_mm[both])) < 0.05
+
+
 def test_bad_input_raises(r):
     with pytest.raises(YcbvssError, match="not added"):
         r.render(K0, W0, H0, [("nope", np.eye(4))])

@@ -13,6 +13,7 @@ Not thread-safe (one Renderer per process/thread).
 """
 from __future__ import annotations
 
+import os
 import warnings
 from collections import OrderedDict
 from collections.abc import Collection, Hashable, Sequence
@@ -100,6 +101,7 @@ class Renderer:
     def __init__(self, max_texture_px: int = 2048, mipmap: bool = True, cull_back_faces: bool | str = "auto",
                  max_cached_framebuffers: int = 8):
         self.ctx = get_context()
+        self._pid = os.getpid()
         self.max_texture_px = int(max_texture_px)
         self.mipmap = bool(mipmap)
         if cull_back_faces not in (True, False, "auto"):
@@ -288,7 +290,12 @@ class Renderer:
         and depths, rendered one item at a time).  ``scales``: per-item uniform scale about the model origin.
         ``shade`` in [0, 1]: 0 = unlit albedo colour, >0 mixes in a headlight Lambert term.
         """
+        if self._pid != os.getpid():
+            raise YcbvssError("render: this Renderer was created in another process (fork); GL objects do not "
+                              "survive a fork -- create the Renderer inside the worker", where="ycbvss.render")
         K = check_K(K, where="ycbvss.render")
+        if isinstance(outputs, str):
+            outputs = (outputs,)
         width, height = int(width), int(height)
         max_vp = int(self.ctx.info.get("GL_MAX_VIEWPORT_DIMS", (16384, 16384))[0])
         if not (0 < width <= max_vp and 0 < height <= max_vp):
@@ -373,9 +380,8 @@ class Renderer:
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
         ctx.disable(moderngl.BLEND)
-        ctx.front_face = FRONT_FACE
         ctx.cull_face = "back"
-        culling = None
+        culling, front = None, None
 
         prog = self._program(with_color, with_normal)
         prog["u_proj"].write(P.T.astype("f4").tobytes())
@@ -393,6 +399,10 @@ class Renderer:
                 prog["u_rot"].write(rots[k].T.astype("f4").tobytes())
             if with_color:
                 (g.texture or self._white_texture()).use(location=0)
+            mirrored = bool(np.linalg.det(mvs[k][:3, :3]) < 0)   # reflection in T: winding flips
+            if mirrored != front:
+                ctx.front_face = ("ccw" if FRONT_FACE == "cw" else "cw") if mirrored else FRONT_FACE
+                front = mirrored
             cull = g.cull if self.cull_back_faces == "auto" else self.cull_back_faces
             if cull != culling:
                 (ctx.enable if cull else ctx.disable)(moderngl.CULL_FACE)
