@@ -48,6 +48,7 @@ def register(sub) -> None:
     p.add_argument("--no-colour-fit", action="store_true")
     p.add_argument("--colour-fit-method", choices=["mk", "lsq"], default="mk")
     p.add_argument("--coverage-stride", type=int, default=1, help="use every N-th frame for the coverage search")
+    p.add_argument("--scales", help="fixed model scales per object, e.g. 8:1.02,14:1.03 (skips the coverage choice)")
     p.add_argument("--max-frames", type=int, default=None, help="first N frames per scene")
     p.add_argument("--frames", help="only these im_ids (e.g. 1,2,5-9)")
     p.set_defaults(func=_handler)
@@ -69,7 +70,9 @@ def _handler(args: argparse.Namespace) -> int:
                         colour_fit=not args.no_colour_fit, colour_fit_method=args.colour_fit_method,
                         coverage_stride=args.coverage_stride, max_frames=args.max_frames,
                         frames=_scenes(args.frames), workers=args.workers, executor=args.executor,
-                        address=args.address, chunk=args.chunk)
+                        address=args.address, chunk=args.chunk,
+                        scales={int(k): float(v) for k, v in (kv.split(":") for kv in args.scales.split(","))}
+                        if args.scales else None)
     rep = run_synth(args.dataset, args.split, args.out, _scenes(args.scenes), args.poses, opts)
     print(f"YCBV-SS: {rep['frames']['done']} frames, {len(rep['frames']['skipped'])} skipped -> {args.out}")
     for oid, o in rep["objects"].items():
