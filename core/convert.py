@@ -56,12 +56,11 @@ def bop_to_ycbv_pose(T_bop_mm: np.ndarray, c_mm: np.ndarray) -> np.ndarray:
 
 def _bop_mesh_from_obj(model: ObjectModel, texture_max_px: int | None = None):
     """Load a YCB-V textured.obj, return (mesh recentred in mm, c_mm, texture RGB | None)."""
-    from .io.mesh import load_mesh_mm, load_vertices_mm, mesh_texture_rgb
+    from .io.mesh import load_textured_mm, load_vertices_mm
     v = load_vertices_mm(model.path, 1000.0)
     c_mm = (v.min(axis=0) + v.max(axis=0)) / 2
-    mesh = load_mesh_mm(model.path, 1000.0)
+    mesh, tex = load_textured_mm(model.path, 1000.0)
     mesh.vertices = np.asarray(mesh.vertices, np.float64) - c_mm
-    tex = mesh_texture_rgb(mesh)
     if tex is not None and texture_max_px and max(tex.shape[:2]) > texture_max_px:
         import cv2
         s = texture_max_px / max(tex.shape[:2])

@@ -38,7 +38,10 @@ def test_summary_and_layout(converted):
         for name in ("scene_gt.json", "scene_camera.json", "scene_gt_info.json"):
             assert (d / name).is_file()
     assert len(list((out / "train_real/000000/mask_visib").glob("*.png"))) == 30
-    assert (out / "models/obj_000021.png").is_file() and (out / "camera_uw.json").is_file()
+    assert (out / "camera_uw.json").is_file()
+    from ycbvss.io.images import read_rgb
+    tex = read_rgb(out / "models/obj_000021.png")                 # 4096 px source, --texture-max-px 256
+    assert max(tex.shape[:2]) == 256 and tex.std() > 5
 
 
 def test_rendered_masks_match_label_images(converted, ycbv_root):
