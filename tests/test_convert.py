@@ -248,10 +248,11 @@ def test_missing_model_is_named(ycbv_root, tmp_path):
 
 def test_cli_convert_small_and_assets_verify(ycbv_root, tmp_path, shared_data):
     """The CLI end to end on one frame (models of video 0000 only), then `assets verify`."""
+    from ycbvss.cli import main
     src = _ycbv_copy(ycbv_root, tmp_path / "ycbv")
-    r = _cli("convert", "ycbv", "--src", src, "--out", tmp_path / "out", "--videos", "0000",
-             "--objects", "8", "--texture-max-px", "128")
-    assert r.returncode == 0, r.stderr
+    rc = main(["convert", "ycbv", "--src", str(src), "--out", str(tmp_path / "out"), "--videos", "0000",
+               "--objects", "8", "--texture-max-px", "128"])
+    assert rc == 0
     gt = json.loads((tmp_path / "out/train_real/000000/scene_gt.json").read_text())
     assert [e["obj_id"] for e in gt["1"]] == [8, 14, 21]
     r = _cli("assets", "verify", "--root", shared_data, "--quiet")

@@ -45,12 +45,15 @@ def test_write_ply_round_trip_keeps_vertices_uv_and_texture(ycbv_root, tmp_path)
     mesh = load_mesh_mm(src, 1000.0)
     n_obj_v = len(load_vertices_mm(src))
     assert len(mesh.vertices) > n_obj_v          # UV seams duplicate vertices (trimesh, process=False)
-    write_ply_mm(tmp_path / "obj_000021.ply", mesh, "obj_000021.png")
+    import cv2
+    tex = cv2.resize(np.asarray(mesh.visual.material.image.convert("RGB")), (512, 512), interpolation=cv2.INTER_AREA)
+    write_ply_mm(tmp_path / "obj_000021.ply", mesh, "obj_000021.png", texture_rgb=tex)
     back = load_mesh_mm(tmp_path / "obj_000021.ply")
     assert len(back.vertices) == len(mesh.vertices) and len(back.faces) == len(mesh.faces)
     assert np.abs(np.asarray(back.vertices) - mesh.vertices).max() < 1e-3      # float32 in mm
     assert np.abs(np.asarray(back.visual.uv) - mesh.visual.uv).max() < 1e-6
-    assert back.visual.material.image.size == mesh.visual.material.image.size
+    back_tex = np.asarray(back.visual.material.image.convert("RGB"))
+    assert back_tex.shape == (512, 512, 3) and np.abs(back_tex.astype(int) - tex).max() == 0   # lossless PNG
     hdr = (tmp_path / "obj_000021.ply").read_bytes()[:400].decode("latin-1")
     assert "comment TextureFile obj_000021.png" in hdr and "binary_little_endian" in hdr
     assert load_vertices_mm(tmp_path / "obj_000021.ply").shape == (len(mesh.vertices), 3)
