@@ -186,3 +186,12 @@ def test_scene_json_readers_direct(bop):
     assert cams[1]["depth_scale"] == 0.1 and cams[1]["K"].shape == (3, 3)
     gt = read_scene_gt(bop / GT, 48, known_obj_ids=[1, 2])
     assert [i.obj_id for i in gt[3]] == [1, 2] and [i.gt_id for i in gt[3]] == [0, 1]
+
+
+def test_annotation_only_scene_loads_without_images(bop):
+    shutil.rmtree(bop / "test/000048/rgb")
+    shutil.rmtree(bop / "test/000048/depth")
+    write_json_atomic(bop / "camera.json", {"width": 64, "height": 48, "fx": 100.0})
+    f = load_dataset(bop, "test").load_scene(48).frames[0]
+    assert f.rgb_path is None and f.depth_path is None and (f.camera.width, f.camera.height) == (64, 48)
+    assert len(f.instances) == 2

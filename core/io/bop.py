@@ -285,26 +285,42 @@ def _index_images(d: Path) -> dict[int, Path]:
     return out
 
 
+def _dataset_image_size(root: Path) -> tuple[int, int]:
+    """(width, height) from the dataset's camera*.json (BOP), else 640x480 (YCB-V)."""
+    for p in sorted(root.glob("camera*.json")):
+        try:
+            c = read_json(p)
+            return int(c["width"]), int(c["height"])
+        except (YcbvssError, KeyError, TypeError, ValueError):
+            continue
+    return 640, 480
+
+
 def load_bop_scene(split_dir: str | Path, scene_id: int, models: dict[int, ObjectModel] | None = None,
                    rot_tol: float = ROT_TOL, image_size: tuple[int, int] | None = None) -> Scene:
-    """One BOP scene folder. Frames = entries of scene_camera.json; scene_gt.json optional."""
+    """One BOP scene folder. Frames = entries of scene_camera.json; scene_gt.json optional.
+
+    With an rgb/ (or gray/) folder every frame must have its image (and its depth image when
+    depth/ exists); a scene without image folders (annotations only) gives frames with
+    ``rgb_path=None`` and the image size of the dataset's camera*.json (default 640x480).
+    """
     sdir = Path(split_dir) / f"{scene_id:06d}"
     cams = read_scene_camera(sdir / "scene_camera.json", scene_id)
     gt = {}
     if (sdir / "scene_gt.json").is_file():
         gt = read_scene_gt(sdir / "scene_gt.json", scene_id, None if models is None else models.keys(), rot_tol)
     gt_info = read_scene_gt_info(sdir / "scene_gt_info.json", scene_id) if (sdir / "scene_gt_info.json").is_file() else {}
+    size = image_size
     img_dir = next((sdir / d for d in IMAGE_DIRS if (sdir / d).is_dir()), None)
-    if img_dir is None:
-        raise YcbvssError("scene has no rgb/ or gray/ folder", sdir, fmt_where(scene_id))
-    imgs = _index_images(img_dir)
+    imgs = _index_images(img_dir) if img_dir is not None else {}
+    if img_dir is None and size is None:      # annotation-only scene (e.g. refined poses): size from camera JSON
+        size = _dataset_image_size(Path(split_dir).parent)
     depth_dir = sdir / "depth"
     depths = _index_images(depth_dir)
     frames = []
-    size = image_size
     for im_id in sorted(cams):
         wh = fmt_where(scene_id, im_id)
-        if im_id not in imgs:
+        if img_dir is not None and im_id not in imgs:
             raise YcbvssError("missing frame image", img_dir / f"{im_id:06d}.png", wh)
         if depth_dir.is_dir() and im_id not in depths:
             raise YcbvssError("missing depth image", depth_dir / f"{im_id:06d}.png", wh)
@@ -312,11 +328,11 @@ def load_bop_scene(split_dir: str | Path, scene_id: int, models: dict[int, Objec
             size = _image_size(imgs[im_id], wh)
         c = cams[im_id]
         extra = {"gt_info": gt_info.get(im_id)} if im_id in gt_info else {}
-        if img_dir.name == "gray":
+        if img_dir is not None and img_dir.name == "gray":
             extra["gray"] = True
         frames.append(Frame(scene_id=scene_id, im_id=im_id, camera=Camera(c["K"], size[0], size[1]),
                             instances=gt.get(im_id, []), depth_scale=c["depth_scale"],
-                            rgb_path=imgs[im_id], depth_path=depths.get(im_id), T_w2c=c["T_w2c"], extra=extra))
+                            rgb_path=imgs.get(im_id), depth_path=depths.get(im_id), T_w2c=c["T_w2c"], extra=extra))
     return Scene(scene_id=scene_id, frames=frames, root=sdir)
 
 
