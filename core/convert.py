@@ -91,7 +91,7 @@ def convert_models(ycbv_models: dict[int, ObjectModel], models_dir: Path, overwr
             raise YcbvssError("no YCB-Video model (models/<name>/textured.obj) for this object",
                               None, fmt_where(obj_id=oid))
     old_info = {}
-    if (models_dir / "models_info.json").is_file() and not overwrite:
+    if (models_dir / "models_info.json").is_file():
         try:
             old_info = load_models_info(models_dir)
         except YcbvssError:
@@ -154,14 +154,15 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
 
     ``videos``: None (all), list of ints, or '0000,0001'; ``split``: None = BOP ycbv's split
     by video (test for 48-59, else train_real); ``obj_ids``: models to convert (default: all
-    21, plus always every object seen in the selected videos); ``texture_max_px``: downsample
+    21; objects seen in the selected videos are always converted, when their video is reached);
+    ``texture_max_px``: downsample
     model textures larger than this (None: keep the 4096 px YCB textures); ``workers``: threads
     for the model conversion.
     """
     from .gt_info import compute_gt_info
     from .io.bop import BopSceneWriter
     from .io.images import read_depth_mm
-    from .io.ycbv import load_ycbv_dataset
+    from .io.ycbv import list_frames, load_ycbv_dataset
     from .progress import progress
 
     t0 = time.perf_counter()
@@ -169,26 +170,33 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
     if out.resolve() == src.resolve():
         raise YcbvssError("output folder must differ from the YCB-Video root", out)
     ds = load_ycbv_dataset(src, videos)
-    scenes = {v: ds.load_scene(v) for v in ds.scene_ids}   # meta.mat only; images stay on disk
-    used = {oid for s in scenes.values() for oid in s.obj_ids}
-    ids = sorted((set(ds.models) if obj_ids is None else set(int(i) for i in obj_ids)) | used)
+    ids = sorted(set(ds.models) if obj_ids is None else set(int(i) for i in obj_ids))
     centers, bop_models = convert_models(ds.models, out / "models", overwrite, ids, show_progress,
                                          texture_max_px, workers)
     t_models = time.perf_counter() - t0
     _write_camera_jsons(out)
-    if renderer is None:
-        from .render import Renderer
-        renderer = Renderer()
-    n_frames = sum(len(s.frames) for s in scenes.values())
+    frame_ids = {v: list_frames(src, v) for v in ds.scene_ids}      # from file names only
+    n_frames = sum(len(x) for x in frame_ids.values())
     done = skipped = 0
     bar = progress(total=n_frames, desc="frames", unit="frame", **({} if show_progress else {"file": _Null()}))
-    for v, scene in scenes.items():
+    for v in ds.scene_ids:                                           # streaming: one video at a time
         sp = split or default_split(v)
         writer = BopSceneWriter(out / sp, v)
-        if not overwrite and _scene_complete(writer.dir, [f.im_id for f in scene.frames]):
-            skipped += len(scene.frames)
-            bar.update(len(scene.frames))
+        if not overwrite and _scene_complete(writer.dir, frame_ids[v]):
+            skipped += len(frame_ids[v])
+            bar.update(len(frame_ids[v]))
             continue
+        scene = ds.load_scene(v)                                     # meta.mat files; images stay on disk
+        new = sorted(set(scene.obj_ids) - set(bop_models))
+        if new:                                                      # objects not requested but present
+            t1 = time.perf_counter()
+            c2, m2 = convert_models(ds.models, out / "models", overwrite, new, False, texture_max_px, workers)
+            centers.update(c2)
+            bop_models.update(m2)
+            t_models += time.perf_counter() - t1
+        if renderer is None:
+            from .render import Renderer
+            renderer = Renderer()
         for f in scene.frames:
             insts = [Instance(obj_id=i.obj_id, T_m2c=ycbv_to_bop_pose(i.T_m2c, centers[i.obj_id]), gt_id=i.gt_id)
                      for i in f.instances]
@@ -206,6 +214,6 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
         writer.close()
     bar.close()
     dt = time.perf_counter() - t0
-    return {"out": str(out), "videos": list(scenes), "frames_written": done, "frames_skipped": skipped,
-            "models": ids, "seconds": dt, "seconds_models": t_models,
+    return {"out": str(out), "videos": list(ds.scene_ids), "frames_written": done, "frames_skipped": skipped,
+            "models": sorted(bop_models), "seconds": dt, "seconds_models": t_models,
             "centers_mm": {k: v.tolist() for k, v in centers.items()}}
