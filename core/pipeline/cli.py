@@ -126,7 +126,7 @@ def register(subparsers) -> None:
     d.set_defaults(func=_demo)
 
 
-def _print_summary(summary: dict, what: str) -> None:
+def _print_summary(summary: dict, what: str, stages=None) -> None:
     out = sys.stdout
     print("", file=out)
     print(summary["table4_md"], file=out)
@@ -140,9 +140,11 @@ def _print_summary(summary: dict, what: str) -> None:
         print(f"refined (all terms): mean ADD {r['add_mm']:.3f} mm, mean PRJ {r['prj_px']:.3f} px", file=out)
     print(f"\n{what}: {summary['scenes'].__len__()} scene(s), {summary['frames']} frames, {summary['pairs']} "
           f"(view, object) pairs", file=out)
-    tt = summary["timings_table"]
-    for row in tt.rows:
-        print(f"  {row.label:<48s} {row.values[0]:8.1f} s", file=out)
+    times = dict(stages.times) if stages is not None else dict(summary.get("timings_s", {}))
+    for k, t in times.items():
+        print(f"  {k:<48s} {t:8.1f} s", file=out)
+    if stages is not None:
+        print(f"  {'total':<48s} {stages.total_s:8.1f} s", file=out)
     print(f"tables:  {Path(summary['out']) / 'tables'}", file=out)
     print(f"figures: {Path(summary['out']) / 'figures'}", file=out)
     print(f"report:  {summary['report']}", file=out)
@@ -159,7 +161,7 @@ def _validate(args) -> int:
                            samples=args.samples, overlays=args.overlays)
     stages = Stages()
     summary = run_validate(opts, stages)
-    _print_summary(summary, "ycbvss validate" + (" --real" if args.real else ""))
+    _print_summary(summary, "ycbvss validate" + (" --real" if args.real else ""), stages)
     return 0
 
 
@@ -172,5 +174,5 @@ def _demo(args) -> int:
                        overlays=args.overlays)
     stages = Stages()
     summary = run_demo(opts, stages)
-    _print_summary(summary, "ycbvss demo")
+    _print_summary(summary, "ycbvss demo", stages)
     return 0

@@ -294,7 +294,6 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
     summary["table4_md"] = table_text(t4)
     summary["table5_md"] = table_text(t5) if t5 is not None else ""
     summary["files"] = [str(p) for p in files] + [str(report)]
-    summary["timings_table"] = tt
     return summary
 
 
@@ -337,5 +336,5 @@ def write_real_outputs(out: Path, opts, scenes, models, orig, Ks, refined, diff,
     sections.append(("Timings", table_html(tt)))
     report = write_html(out / "report.html", opts.title + " (real frames)", info, sections, files)
     summary.update(report=str(report), table4_md=table_text(t), table5_md="",
-                   files=[str(p) for p in files] + [str(report)], timings_table=tt)
+                   files=[str(p) for p in files] + [str(report)])
     return summary

@@ -276,7 +276,19 @@ def run_validate(opts: ValidateOptions, stages: Stages | None = None) -> dict:
     with stages.stage("tables, figures, report"):
         summary = rep.write_validation_outputs(out, opts, scenes, models, gt, Ks, pr, refined, errs, stages,
                                                originals, src_layout)
+    _finish(summary, stages)
     return summary
+
+
+def _finish(summary: dict, stages: Stages) -> None:
+    """Record the final timings (incl. the report stage) in summary.json."""
+    from ..io.atomic import read_json, write_json_atomic
+    p = Path(summary["out"]) / "summary.json"
+    data = read_json(p)
+    data["timings_s"] = dict(stages.times)
+    data["total_s"] = stages.total_s
+    write_json_atomic(p, data)
+    summary["timings_s"] = dict(stages.times)
 
 
 def _run_real(opts: ValidateOptions, ds, scenes: list[Scene], stages: Stages) -> dict:
@@ -292,4 +304,6 @@ def _run_real(opts: ValidateOptions, ds, scenes: list[Scene], stages: Stages) ->
         diff = pose_set_errors(orig, refined["using all"], Ks, models)   # original measured against refined
     from . import report as rep
     with stages.stage("tables, figures, report"):
-        return rep.write_real_outputs(Path(opts.out), opts, scenes, models, orig, Ks, refined, diff, stages)
+        summary = rep.write_real_outputs(Path(opts.out), opts, scenes, models, orig, Ks, refined, diff, stages)
+    _finish(summary, stages)
+    return summary
