@@ -13,16 +13,14 @@ points ``pts`` are (P, 3) mm in the model frame (``ObjectModel.vertices_mm``).
   estimated pose, averaged (= bop_toolkit ``adi``). Uses one :class:`ModelPoints` index per object
   (a KD-tree built once in the model frame), never one tree per pose.
 
-Batches are processed in chunks so that temporaries stay below ``chunk_bytes``.
+Batches are processed in blocks of ``poses_per_block`` poses with the points as rows, so every
+rigid transform of a block is ONE matrix product and the temporaries stay in cache.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .model_points import ModelPoints
-
-DEFAULT_CHUNK_BYTES = 64 * 2**20
-
 
 def _f64(a) -> np.ndarray:
     return np.asarray(a, dtype=np.float64)
@@ -57,10 +55,6 @@ def _batched(R_est, t_est, R_gt, t_gt):
     return single, R_est, t_est.reshape(-1, 3), R_gt, t_gt.reshape(-1, 3)
 
 
-def _chunk_size(n_points: int, per_point_bytes: int, chunk_bytes: int) -> int:
-    return max(1, int(chunk_bytes // max(1, n_points * per_point_bytes)))
-
-
 def relative_model_transform(R_est, t_est, R_gt, t_gt) -> tuple[np.ndarray, np.ndarray]:
     """(A, b) with ``A = R_est^T R_gt``, ``b = R_est^T (t_gt - t_est)``, batched (N, 3, 3), (N, 3).
 
@@ -73,40 +67,33 @@ def relative_model_transform(R_est, t_est, R_gt, t_gt) -> tuple[np.ndarray, np.n
 
 
 def add_adds_mm(R_est, t_est, R_gt, t_gt, points: ModelPoints | np.ndarray, with_adds: bool = True,
-                chunk_bytes: int = DEFAULT_CHUNK_BYTES) -> tuple[np.ndarray, np.ndarray]:
+                poses_per_block: int = 16) -> tuple[np.ndarray, np.ndarray]:
     """ADD and ADD-S together (they share the transformed points). Returns (add, adds) [mm],
     scalars for one pose, (N,) for a batch; adds is NaN when ``with_adds`` is False."""
     mp = points if isinstance(points, ModelPoints) else ModelPoints(points)
     single, R_est, t_est, R_gt, t_gt = _batched(R_est, t_est, R_gt, t_gt)
     A, b = relative_model_transform(R_est, t_est, R_gt, t_gt)
-    n = len(A)
-    add = np.empty(n)
-    adds = np.full(n, np.nan)
-    step = _chunk_size(mp.n, 128, chunk_bytes)
-    for s in range(0, n, step):
-        sl = slice(s, min(n, s + step))
-        a_, s_ = mp.add_adds(A[sl], b[sl], with_adds=with_adds)
-        add[sl] = a_
-        if with_adds:
-            adds[sl] = s_
+    add, adds = mp.add_adds(A, b, with_adds=with_adds, poses_per_block=poses_per_block)
+    if adds is None:
+        adds = np.full(len(add), np.nan)
     if single:
         return add[0], adds[0]
     return add, adds
 
 
-def add_mm(R_est, t_est, R_gt, t_gt, pts, chunk_bytes: int = DEFAULT_CHUNK_BYTES):
+def add_mm(R_est, t_est, R_gt, t_gt, pts, poses_per_block: int = 16):
     """ADD [mm]: mean over model points of ``||(R_est x + t_est) - (R_gt x + t_gt)||``."""
-    return add_adds_mm(R_est, t_est, R_gt, t_gt, pts, with_adds=False, chunk_bytes=chunk_bytes)[0]
+    return add_adds_mm(R_est, t_est, R_gt, t_gt, pts, with_adds=False, poses_per_block=poses_per_block)[0]
 
 
-def adds_mm(R_est, t_est, R_gt, t_gt, pts, chunk_bytes: int = DEFAULT_CHUNK_BYTES):
+def adds_mm(R_est, t_est, R_gt, t_gt, pts, poses_per_block: int = 16):
     """ADD-S [mm]: mean over GT-posed points of the distance to the nearest estimate-posed point.
 
     ``pts`` may be a :class:`ModelPoints` (build it once per object and reuse it)."""
-    return add_adds_mm(R_est, t_est, R_gt, t_gt, pts, with_adds=True, chunk_bytes=chunk_bytes)[1]
+    return add_adds_mm(R_est, t_est, R_gt, t_gt, pts, with_adds=True, poses_per_block=poses_per_block)[1]
 
 
-def prj_px(R_est, t_est, R_gt, t_gt, K, pts, chunk_bytes: int = DEFAULT_CHUNK_BYTES):
+def prj_px(R_est, t_est, R_gt, t_gt, K, pts, poses_per_block: int = 16):
     """PRJ [px]: mean 2D distance between the model points projected with the estimated and the
     GT pose through the intrinsics ``K`` (3, 3) or (N, 3, 3). Points behind the camera are not
     special-cased (as bop_toolkit ``proj``)."""
@@ -118,13 +105,18 @@ def prj_px(R_est, t_est, R_gt, t_gt, K, pts, chunk_bytes: int = DEFAULT_CHUNK_BY
     KRe, KRg = K @ R_est, K @ R_gt
     Kte, Ktg = (K @ t_est[..., None])[..., 0], (K @ t_gt[..., None])[..., 0]
     out = np.empty(n)
-    step = _chunk_size(len(pts), 8 * 12, chunk_bytes)
-    for s in range(0, n, step):
-        sl = slice(s, min(n, s + step))
-        qe = pts @ np.swapaxes(KRe[sl], -1, -2) + Kte[sl, None, :]
-        qg = pts @ np.swapaxes(KRg[sl], -1, -2) + Ktg[sl, None, :]
-        d = qe[..., :2] / qe[..., 2:3] - qg[..., :2] / qg[..., 2:3]
-        out[sl] = np.sqrt(np.einsum("npi,npi->np", d, d)).mean(axis=1)
+    P = len(pts)
+    for s in range(0, n, poses_per_block):
+        sl = slice(s, min(n, s + poses_per_block))
+        m = sl.stop - sl.start
+        # one matrix product for both poses of the block: (P, 3) @ (3, 2 m 3) -> (P, m, 2, 3)
+        W = np.stack([KRe[sl], KRg[sl]], axis=1).transpose(3, 0, 1, 2).reshape(3, m * 6)
+        q = (pts @ W).reshape(P, m, 2, 3)
+        q += np.stack([Kte[sl], Ktg[sl]], axis=1)[None]
+        iz = 1.0 / q[..., 2]                                        # (P, m, 2)
+        du = q[..., 0, 0] * iz[..., 0] - q[..., 1, 0] * iz[..., 1]
+        dv = q[..., 0, 1] * iz[..., 0] - q[..., 1, 1] * iz[..., 1]
+        out[sl] = np.sqrt(du * du + dv * dv).mean(axis=0)
     return out[0] if single else out
 
 
@@ -132,13 +124,13 @@ ERROR_KEYS = ("tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "adds_mm")
 
 
 def pose_errors(R_est, t_est, R_gt, t_gt, K, points: ModelPoints | np.ndarray, with_adds: bool = True,
-                chunk_bytes: int = DEFAULT_CHUNK_BYTES) -> dict[str, np.ndarray]:
+                poses_per_block: int = 16) -> dict[str, np.ndarray]:
     """All per-pose errors of N pose pairs of ONE object: dict of (N,) arrays keyed by
     :data:`ERROR_KEYS` (``adds_mm`` is NaN when ``with_adds`` is False)."""
     mp = points if isinstance(points, ModelPoints) else ModelPoints(points)
     _, R_est, t_est, R_gt, t_gt = _batched(R_est, t_est, R_gt, t_gt)
     te = te_axes_mm(t_est, t_gt)
-    add, adds = add_adds_mm(R_est, t_est, R_gt, t_gt, mp, with_adds=with_adds, chunk_bytes=chunk_bytes)
+    add, adds = add_adds_mm(R_est, t_est, R_gt, t_gt, mp, with_adds=with_adds, poses_per_block=poses_per_block)
     return {"tx_mm": te[:, 0], "ty_mm": te[:, 1], "tz_mm": te[:, 2], "r_deg": re_deg(R_est, R_gt),
-            "prj_px": prj_px(R_est, t_est, R_gt, t_gt, K, mp.points, chunk_bytes=chunk_bytes),
+            "prj_px": prj_px(R_est, t_est, R_gt, t_gt, K, mp.points, poses_per_block),
             "add_mm": np.atleast_1d(add), "adds_mm": np.atleast_1d(adds)}

@@ -37,7 +37,6 @@ class ModelPoints:
         self._tree = None
         self._fast = None
         self.stats = {"certified": 0, "tree": 0}   # point queries answered by each path
-        self.sub_batch_bytes = 8 * 2**20              # size of the (poses, P, k) score block
 
     @property
     def tree(self):
@@ -62,41 +61,58 @@ class ModelPoints:
         return self._fast
 
     def transformed(self, A: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """``A x + b`` for all points, (n, 3, 3), (n, 3) -> (n, P, 3)."""
-        return self.points @ np.swapaxes(A, -1, -2) + b[:, None, :]
+        """``A x + b`` for all points as ONE matrix product, (m, 3, 3), (m, 3) -> (P, m, 3)."""
+        m = len(A)
+        Y = (self.points @ A.transpose(2, 0, 1).reshape(3, 3 * m)).reshape(self.n, m, 3)
+        Y += b[None]
+        return Y
 
     def nearest_dist(self, Y: np.ndarray) -> np.ndarray:
-        """Exact nearest-model-point distance of arbitrary query points (..., 3) (KD-tree)."""
-        return self.tree.query(Y, k=1, workers=self.workers)[0]
+        """Exact nearest-model-point distance of arbitrary query points (..., 3) (KD-tree;
+        threads only for large batches, where they pay off)."""
+        workers = self.workers if Y.size >= 3 * 20000 else 1
+        return self.tree.query(Y, k=1, workers=workers)[0]
 
-    def add_adds(self, A: np.ndarray, b: np.ndarray, with_adds: bool = True
+    def add_adds(self, A: np.ndarray, b: np.ndarray, with_adds: bool = True, poses_per_block: int = 16
                  ) -> tuple[np.ndarray, np.ndarray | None]:
         """Mean ADD and ADD-S distances [mm] for relative transforms ``A`` (n, 3, 3), ``b`` (n, 3)
-        (see :func:`ycbvss.eval.metrics.relative_model_transform`). One chunk: the caller bounds n."""
-        Y = self.transformed(A, b)                                  # (n, P, 3)
-        D = Y - self.points[None]
-        delta = np.sqrt(np.einsum("npi,npi->np", D, D))             # per-point ADD distances
-        add = delta.mean(axis=1)
+        (see :func:`ycbvss.eval.metrics.relative_model_transform`); ADD-S is None if not wanted.
+        Works on blocks of ``poses_per_block`` poses (arrays of P x block stay in cache)."""
+        A = np.asarray(A, dtype=np.float64).reshape(-1, 3, 3)
+        b = np.asarray(b, dtype=np.float64).reshape(-1, 3)
+        n = len(A)
+        add = np.empty(n)
+        adds = np.empty(n) if with_adds else None
+        for s in range(0, n, poses_per_block):
+            sl = slice(s, min(n, s + poses_per_block))
+            a_, s_ = self._block(A[sl], b[sl], with_adds)
+            add[sl] = a_
+            if with_adds:
+                adds[sl] = s_
+        return add, adds
+
+    def _block(self, A, b, with_adds):
+        Y = self.transformed(A, b)                                  # (P, m, 3)
+        D = Y - self.points[:, None, :]
+        delta = np.sqrt(np.einsum("pni,pni->pn", D, D))             # per-point ADD distances
+        add = delta.mean(axis=0)
         if not with_adds:
             return add, None
         d = np.empty_like(delta)
         todo = np.ones(delta.shape, dtype=bool)
         if self.k > 0:
             U, rho, FT, rho_med = self._fast_data()
-            fast = np.flatnonzero(add < rho_med)                    # poses where candidates help
-            step = max(1, self.sub_batch_bytes // (8 * self.n * self.k))
-            rows = np.arange(self.n)[None, :]
-            for s in range(0, len(fast), step):
-                f = fast[s:s + step]
+            f = np.flatnonzero(add < rho_med)                       # poses where candidates help
+            if len(f):
                 theta = np.concatenate([(A[f] - np.eye(3)).reshape(-1, 9), b[f], np.ones((len(f), 1))], axis=1)
-                j = (theta @ FT).reshape(len(f), self.n, self.k).argmin(axis=-1)
-                G = D[f] - U[rows, j]                               # y - c for the chosen candidates
-                df = np.sqrt(np.einsum("npi,npi->np", G, G))
-                d[f] = df
-                todo[f] = df > (rho[None, :] - delta[f]) * (1.0 - 1e-12)
+                j = (theta @ FT).reshape(len(f), self.n, self.k).argmin(axis=-1).T      # (P, m_f)
+                G = D[:, f] - U[np.arange(self.n)[:, None], j]      # y - c for the chosen candidates
+                df = np.sqrt(np.einsum("pni,pni->pn", G, G))
+                d[:, f] = df
+                todo[:, f] = df > (rho[:, None] - delta[:, f]) * (1.0 - 1e-12)
         n_tree = int(todo.sum())
         self.stats["tree"] += n_tree
         self.stats["certified"] += todo.size - n_tree
         if n_tree:
             d[todo] = self.nearest_dist(Y[todo])
-        return add, d.mean(axis=1)
+        return add, d.mean(axis=0)

@@ -88,7 +88,7 @@ def test_vectorised_equals_per_pose_reference():
     rng = np.random.default_rng(3)
     pts = _cloud(rng, 1200)
     Re, te, Rg, tg = _random_pairs(rng, 60, 5.0, 2.0)
-    fast = pose_errors(Re, te, Rg, tg, K, ModelPoints(pts), chunk_bytes=2**20)   # several chunks
+    fast = pose_errors(Re, te, Rg, tg, K, ModelPoints(pts), poses_per_block=7)   # several blocks
     ref = errors_loop(Re, te, Rg, tg, K, pts)
     for k in ref:
         assert np.max(np.abs(fast[k] - ref[k])) < 1e-6, k
