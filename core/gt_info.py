@@ -17,8 +17,6 @@ For instance k of a frame (all instances rendered together, one z-buffer):
 """
 from __future__ import annotations
 
-from typing import Sequence
-
 import numpy as np
 
 from .scene import Frame, ObjectModel
