@@ -202,6 +202,8 @@ def evaluate_arrays(gt: GtArrays, est: EstArrays, models: dict, options: EvalOpt
     m = match(gt.scene_id, gt.im_id, gt.obj_id, est.scene_id, est.im_id, est.obj_id, est.score, cost)
     if m.n_est_no_image:
         warnings.warn(f"{m.n_est_no_image} estimate(s) for images not in the GT were ignored")
+    if m.n_est_no_object:
+        warnings.warn(f"{m.n_est_no_object} estimate(s) for objects absent from their image were ignored")
     if m.n_groups_surplus:
         warnings.warn(f"{m.n_groups_surplus} (image, object) pair(s) had more estimates than GT "
                       f"instances: kept the highest-scored ({m.n_est_surplus} estimate(s) ignored)")
