@@ -52,6 +52,8 @@ class RefineOptions:
     edge_norm_percentile: float = 100.0
     n_matches: int = 1000
     match_erode_px: int = 6
+    flow_margin_px: int = 24
+    match_every: int = 2              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
     min_visible_px: int = 30
@@ -104,6 +106,7 @@ class _Stage:
         self._flows: dict[tuple[int, int], tuple] = {}
         self.visible: set[tuple[int, int]] = set()
         self.converged = False
+        self._point_term = None
 
     def _t(self, key: str, dt: float) -> None:
         self.stats[key] = self.stats.get(key, 0.0) + dt
@@ -122,7 +125,7 @@ class _Stage:
         self._t("render_s", time.perf_counter() - t0)
         return vr
 
-    def build_terms(self, fields: dict, renders: dict) -> list:
+    def build_terms(self, fields: dict, renders: dict, recompute_matches: bool = True) -> list:
         pb, opt = self.pb, self.opt
         terms = []
         vis = {(i, j) for i, vr in renders.items() for j in vr.obj_index
@@ -139,16 +142,21 @@ class _Stage:
             terms.append(EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
                                   curv_floor=opt.edge_curv_floor / sig))
             self._t("edge_sampling_s", time.perf_counter() - t0)
-        if opt.use_point and opt.alpha > 0:
+        if opt.use_point and opt.alpha > 0 and not recompute_matches and self._point_term is not None:
+            terms.append(self._point_term)
+        elif opt.use_point and opt.alpha > 0:
             t0 = time.perf_counter()
             groups = []
             for i, vr in renders.items():
                 objs = [j for j in vr.obj_index if (i, j) in vis]
                 if not objs:
                     continue
-                raw = composite(vr, pb.views[i].image)
-                masks = [object_mask(vr, j, opt.match_erode_px) for j in objs]
-                matches = flow_matches(normalize_for_flow(raw), self.norm_image(i), masks, opt.flow, corner_image=raw)
+                y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
+                raw = composite(vr, pb.views[i].image)[y0:y1, x0:x1]
+                masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
+                matches = flow_matches(normalize_for_flow(raw), normalize_for_flow(pb.views[i].image[y0:y1, x0:x1]),
+                                       masks, opt.flow, corner_image=raw)
+                matches = [(a + (x0, y0), b + (x0, y0)) for a, b in matches]
                 for j, (xs, xd) in zip(objs, matches):
                     if len(xs) == 0:
                         continue
@@ -161,7 +169,8 @@ class _Stage:
                     Y = backproject(pb.views[i].K, xs[ok], d[ok])
                     Pinv = inv_T(pb.pose(i, j))
                     groups.append(PointGroup(i, j, Y @ Pinv[:3, :3].T + Pinv[:3, 3], xd[ok]))
-            terms.append(PointTerm(groups, weight=opt.alpha, rho=opt.rho))
+            self._point_term = PointTerm(groups, weight=opt.alpha, rho=opt.rho)
+            terms.append(self._point_term)
             self._t("point_matching_s", time.perf_counter() - t0)
         if opt.use_temporal and opt.beta > 0 and self.pairs:
             t0 = time.perf_counter()
@@ -171,13 +180,17 @@ class _Stage:
                     renders[k] = self.render(k)
                 vr = renders[k]
                 if (k, i) not in self._flows:
-                    a, b = self.norm_image(k), self.norm_image(i)
-                    self._flows[(k, i)] = (dense_flow(a, b, opt.flow), dense_flow(b, a, opt.flow))
+                    y0, y1, x0, x1 = _bbox(vr.instance > 0, 2 * opt.flow_margin_px)
+                    a = normalize_for_flow(pb.views[k].image[y0:y1, x0:x1])
+                    b = normalize_for_flow(pb.views[i].image[y0:y1, x0:x1])
+                    self._flows[(k, i)] = ((dense_flow(a, b, opt.flow), dense_flow(b, a, opt.flow)), (y0, y1, x0, x1))
+                flows, (y0, y1, x0, x1) = self._flows[(k, i)]
                 m = np.zeros(vr.instance.shape, bool)
                 for j in vr.obj_index:
                     m |= object_mask(vr, j, opt.match_erode_px)
-                (xs, xd), = flow_matches(None, None, [m], opt.flow, flows=self._flows[(k, i)],
-                                         corner_image=pb.views[k].image)
+                (xs, xd), = flow_matches(None, None, [m[y0:y1, x0:x1]], opt.flow, flows=flows,
+                                         corner_image=pb.views[k].image[y0:y1, x0:x1])
+                xs, xd = xs + (x0, y0), xd + (x0, y0)
                 if len(xs) == 0:
                     continue
                 xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
@@ -194,6 +207,7 @@ class _Stage:
         terms = []
         sopt = SolverOptions(max_iters=opt.inner_iters)
         lam = None
+        n_built = 0
         for li, sigma in enumerate(sigmas):
             n_outer = opt.max_iters if li == len(sigmas) - 1 else min(opt.coarse_iters, opt.max_iters)
             t0 = time.perf_counter()
@@ -201,7 +215,8 @@ class _Stage:
             self._t("edge_field_s", time.perf_counter() - t0)
             for outer in range(n_outer):
                 renders = {i: self.render(i) for i in self.term_views}
-                terms = self.build_terms(fields, renders)
+                n_built += 1
+                terms = self.build_terms(fields, renders, recompute_matches=(n_built - 1) % max(opt.match_every, 1) == 0)
                 terms = [t for t in terms if t.groups]
                 if not terms:
                     self.converged = True
@@ -216,6 +231,17 @@ class _Stage:
                     break
                 self.converged = conv
         return terms
+
+
+def _bbox(mask: np.ndarray, margin: int) -> tuple[int, int, int, int]:
+    """Bounding box (y0, y1, x0, x1) of a mask grown by ``margin`` px (the whole image if empty)."""
+    H, W = mask.shape
+    if not mask.any():
+        return 0, H, 0, W
+    ys = np.flatnonzero(mask.any(axis=1))
+    xs = np.flatnonzero(mask.any(axis=0))
+    return (max(int(ys[0]) - margin, 0), min(int(ys[-1]) + 1 + margin, H),
+            max(int(xs[0]) - margin, 0), min(int(xs[-1]) + 1 + margin, W))
 
 
 def _max_change(a, b) -> tuple[float, float]:

@@ -122,6 +122,17 @@ def contour_points(inst: np.ndarray, depth: np.ndarray, label: int) -> tuple[np.
     a surface farther away (an occluder's edge is not this object's contour); pixels on the image
     border are skipped (truncated silhouettes are no edges). Each sample is moved half a pixel
     outward (to the silhouette boundary between pixel centres). Returns uv (N, 2), depth (N,)."""
+    full = inst == label
+    if not full.any():
+        return np.zeros((0, 2)), np.zeros(0)
+    ys, xs = np.nonzero(full)
+    y0, x0 = max(ys.min() - 1, 0), max(xs.min() - 1, 0)     # 1 px margin: the outside neighbours are real
+    y1, x1 = min(ys.max() + 2, inst.shape[0]), min(xs.max() + 2, inst.shape[1])
+    uv, d = _contour_points(inst[y0:y1, x0:x1], depth[y0:y1, x0:x1], label, inst.shape, (y0, x0))
+    return uv + (x0, y0), d
+
+
+def _contour_points(inst, depth, label, full_shape, origin):
     H, W = inst.shape
     m = inst == label
     pad_i = np.pad(inst, 1, constant_values=-1)
@@ -134,8 +145,16 @@ def contour_points(inst: np.ndarray, depth: np.ndarray, label: int) -> tuple[np.
         edge = m & (ni != label) & (ni != -1) & ((ni == 0) | (nd > depth))
         is_c |= edge
         dirs[edge] += (du, dv)
-    is_c[0, :] = is_c[-1, :] = False
-    is_c[:, 0] = is_c[:, -1] = False
+    # pixels on the image border: a truncated silhouette is no edge
+    y0, x0 = origin
+    if y0 == 0:
+        is_c[0, :] = False
+    if x0 == 0:
+        is_c[:, 0] = False
+    if y0 + H == full_shape[0]:
+        is_c[-1, :] = False
+    if x0 + W == full_shape[1]:
+        is_c[:, -1] = False
     v, u = np.nonzero(is_c)
     d = dirs[v, u]
     n = np.linalg.norm(d, axis=1, keepdims=True)
