@@ -288,6 +288,9 @@ def test_robust_near_plane_offscreen_empty(r):
     d = cut.depth_mm
     assert np.isfinite(d).all() and np.isfinite(cut.normal_cam).all()
     assert cut.instance.sum() > 100 and d[d > 0].min() >= 10.0 - 1e-3 and d.max() <= 45.0 + 1e-3
+    # camera inside a closed box (a room): its inner walls are seen although the box is auto-culled
+    inside = r.render(K0, W0, H0, [("box", pose(t=(0, 0, 5.0)))], outputs=("depth", "instance"), znear_mm=1.0)
+    assert inside.instance.all() and abs(inside.depth_mm[int(K0[1, 2]), int(K0[0, 2])] - 25.0) < 1e-3
 
 
 def test_roi_render_equals_crop_of_full_render(r):

@@ -113,6 +113,7 @@ class Renderer:
         self._fbos: OrderedDict = OrderedDict()
         self._max_fbos = int(max_cached_framebuffers)
         self._white = None
+        self._nocull: set[int] = set()
 
     # ------------------------------------------------------------------ meshes
     def has_mesh(self, key: Hashable) -> bool:
@@ -334,6 +335,8 @@ class Renderer:
 
         P = projection_from_K(K, width, height, znear_mm, zfar_mm)
         visible = [k for k in range(len(items)) if self._in_frustum(P, items[k][0], mvs[k], scales[k])]
+        # never cull back faces of an item whose bounding sphere contains the camera (we may be inside it)
+        self._nocull = {k for k in visible if self._camera_near(items[k][0], mvs[k], scales[k], znear_mm)}
         out = RenderOutput()
         want_main = outs & {"depth", "instance", "normal", "color"}
         if want_main:
@@ -367,6 +370,10 @@ class Renderer:
             if plane @ c < -rad * np.linalg.norm(plane[:3]):
                 return False
         return True
+
+    def _camera_near(self, key: Hashable, mv: np.ndarray, scale: float, znear_mm: float) -> bool:
+        g = self._meshes[key]
+        return float(np.linalg.norm(mv[:3, :3] @ g.centre + mv[:3, 3])) < g.radius * scale + znear_mm
 
     def _draw(self, P, width, height, items, mvs, rots, which, with_color, with_normal, shade, read) -> dict:
         import moderngl
@@ -404,6 +411,8 @@ class Renderer:
                 ctx.front_face = ("ccw" if FRONT_FACE == "cw" else "cw") if mirrored else FRONT_FACE
                 front = mirrored
             cull = g.cull if self.cull_back_faces == "auto" else self.cull_back_faces
+            if k in self._nocull:
+                cull = False
             if cull != culling:
                 (ctx.enable if cull else ctx.disable)(moderngl.CULL_FACE)
                 culling = cull
