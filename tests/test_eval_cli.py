@@ -92,7 +92,7 @@ def test_cli_end_to_end(tiny_bop, tmp_path, capsys):
     assert abs(s["sr_5cm5deg"] - (2 / 3 * 100 + 0.0) / 2) < 1e-9   # bowl rotated 40 deg fails SR
     assert (out / "curves.png").stat().st_size > 10_000
     assert (out / "table.md").read_text().count("\n") >= 4 and (out / "table.tex").is_file()
-    # --use-symmetries without models_info symmetries changes nothing; '--symmetric' alone -> none
+    # '--symmetric' with no id: the bowl is scored with ADD, which sees the 40 deg turn
     rc = main(["eval", "--dataset", str(root), "--split", "test", "--results", str(res), "--out",
                str(tmp_path / "o2"), "--symmetric", "--no-curves"])
     s2 = json.loads((tmp_path / "o2" / "summary.json").read_text())

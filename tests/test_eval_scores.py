@@ -138,3 +138,20 @@ def test_evaluate_arrays_no_estimates_scores_zero():
     s = res.summary
     assert s["add_auc"] == 0.0 and s["prj_auc"] == 0.0 and s["sr_5cm5deg"] == 0.0
     assert s["counts"]["n_gt_missing"] == 2 and np.all(np.isnan(res.errors["add_mm"]))
+
+
+def test_evaluate_use_symmetries_continuous_axis():
+    a = np.radians(np.arange(0, 360, 2.0))
+    pts = np.concatenate([np.stack([60 * np.cos(a), 60 * np.sin(a), np.full_like(a, z)], 1)
+                          for z in (-30.0, 0.0, 30.0)])
+    m = _model(13, pts, diameter_mm=140.0, symmetries_continuous=[{"axis": [0, 0, 1], "offset": [0, 0, 0]}])
+    Rg = exp_so3(np.array([[0.4, -0.2, 0.3]]))
+    tg = np.array([[0.0, 0.0, 700.0]])
+    gt = GtArrays(np.array([1]), np.array([1]), np.array([13]), np.array([0]), Rg, tg, K[None].copy())
+    Re = Rg @ exp_so3(np.array([0, 0, np.radians(40.0)]))      # turned about the symmetry axis
+    est = EstArrays(np.array([1]), np.array([1]), np.array([13]), np.array([1.0]), Re, tg + [2.0, 0, 0])
+    plain = evaluate_arrays(gt, est, {13: m}, EvalOptions(symmetric_obj_ids=()))
+    sym = evaluate_arrays(gt, est, {13: m}, EvalOptions(symmetric_obj_ids=(), use_symmetries=True))
+    assert abs(plain.errors["r_deg"][0] - 40.0) < 1e-6 and plain.errors["add_mm"][0] > 30.0
+    assert sym.errors["r_deg"][0] < 360.0 / 315 / 2 + 1e-6                  # within the sampling step
+    assert abs(sym.errors["tx_mm"][0] - 2.0) < 1e-6 and sym.errors["add_mm"][0] < 2.0 + 60 * np.radians(0.6)
