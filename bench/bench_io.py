@@ -37,9 +37,11 @@ def main() -> None:
     print(f"YCB-V scene loading (meta.mat): {1000 * (time.perf_counter() - t) / n:.1f} ms/frame")
 
     with tempfile.TemporaryDirectory() as tmp:
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         r = convert_ycbv(ycbv, tmp, videos="0000,0001", texture_max_px=a.texture_max_px, show_progress=False)
         total = time.perf_counter() - t
+        print(f"convert CPU time (all threads of this process): {time.process_time() - c:.1f} s; "
+              f"load average now {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
         n_f = r["frames_written"]
         print(f"convert ycbv 0000,0001: total {total:.1f} s; 21 models {r['seconds_models']:.1f} s; "
               f"{n_f} frames {(total - r['seconds_models']):.1f} s "
