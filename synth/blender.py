@@ -128,7 +128,7 @@ def run_parallel(workers: list[BlenderWorker], tasks: list, fn, on_done=None) ->
     return results
 
 
-def render_job(job: dict, workers: int = 1) -> list[dict]:
+def render_job(job: dict, workers: int = 1, on_done=None) -> list[dict]:
     """Render the frames of ``job`` in Blender worker process(es) (Cycles, CPU).
 
     ``job``: ``{"width", "height", "samples", "seed", "denoise", "meshes": {key: {"path",
@@ -136,7 +136,8 @@ def render_job(job: dict, workers: int = 1) -> list[dict]:
     [{"mesh", "pass_index", "T_m2c" (4x4, mm)}], "out_dir"}]}``. Writes per frame into ``out_dir``:
     ``<id>_rgba.exr`` (linear, premultiplied RGBA float32), ``<id>_depth.exr`` (float32 z-depth mm,
     0 = background), ``<id>_index.png`` (uint8, uint16 if a pass_index > 255) and returns
-    ``[{"id", "rgba", "depth", "index", "render_s"}, ...]`` in frame order.
+    ``[{"id", "rgba", "depth", "index", "render_s"}, ...]`` in frame order. ``on_done(result)``
+    (optional) is called as each frame finishes (e.g. to advance a progress bar).
     """
     frames = list(job.get("frames", []))
     if not frames:
@@ -170,7 +171,7 @@ def render_job(job: dict, workers: int = 1) -> list[dict]:
                 warnings.warn(msg, stacklevel=3)
             return r
 
-        return run_parallel(pool, frames, one)
+        return run_parallel(pool, frames, one, on_done)
     finally:
         for w in pool:
             w.close()
