@@ -102,6 +102,7 @@ class Renderer:
                  max_cached_framebuffers: int = 8):
         self.ctx = get_context()
         self._pid = os.getpid()
+        self._max_viewport = int(min(self.ctx.info.get("GL_MAX_VIEWPORT_DIMS", (16384, 16384))))
         self.max_texture_px = int(max_texture_px)
         self.mipmap = bool(mipmap)
         if cull_back_faces not in (True, False, "auto"):
@@ -298,7 +299,7 @@ class Renderer:
         if isinstance(outputs, str):
             outputs = (outputs,)
         width, height = int(width), int(height)
-        max_vp = int(self.ctx.info.get("GL_MAX_VIEWPORT_DIMS", (16384, 16384))[0])
+        max_vp = self._max_viewport
         if not (0 < width <= max_vp and 0 < height <= max_vp):
             raise YcbvssError(f"render: image size {width}x{height} out of range (1..{max_vp})",
                               where="ycbvss.render")
