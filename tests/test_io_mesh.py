@@ -88,3 +88,14 @@ def test_obj_with_missing_texture_warns_and_is_grey(ycbv_root, tmp_path):
         m = load_mesh_mm(tmp_path / "textured.obj", 1000.0)
     cols = np.asarray(m.visual.vertex_colors)
     assert np.all(cols[:, :3] == 153)
+
+
+def test_vertex_coloured_mesh_round_trip(tmp_path):
+    import trimesh
+    box = trimesh.creation.box(extents=(10, 20, 30))
+    box.visual.vertex_colors = np.tile([200, 10, 30, 255], (len(box.vertices), 1))
+    write_ply_mm(tmp_path / "obj_000001.ply", box, "obj_000001.png")     # no UVs: colours, no texture
+    back = load_mesh_mm(tmp_path / "obj_000001.ply")
+    assert back.visual.kind == "vertex" and np.all(back.visual.vertex_colors[:, :3] == [200, 10, 30])
+    assert not (tmp_path / "obj_000001.png").exists()
+    assert abs(compute_models_info(back)["diameter"] - np.sqrt(10**2 + 20**2 + 30**2)) < 1e-4

@@ -289,7 +289,8 @@ def write_ply_mm(path, mesh, texture_name: str | None = None,
     Vertex properties x, y, z, nx, ny, nz (float32) and, when the mesh has per-vertex UVs,
     texture_u, texture_v; faces as ``list uchar int vertex_indices``. With ``texture_name``
     the header gets ``comment TextureFile <texture_name>`` and the texture (``texture_rgb``,
-    else the mesh's material image) is written as PNG beside the PLY under that name.
+    else the mesh's material image) is written as PNG beside the PLY under that name (only
+    when the mesh has UVs). A mesh with per-vertex colours and no UVs gets red/green/blue.
     Normals are area-weighted and shared across UV-seam duplicates.
     """
     path = Path(path)
@@ -299,25 +300,34 @@ def write_ply_mm(path, mesh, texture_name: str | None = None,
     uv = mesh_uv(mesh)
     if texture_name is not None and texture_rgb is None:
         texture_rgb = mesh_texture_rgb(mesh)
+    textured = texture_name is not None and texture_rgb is not None and uv is not None
+    colors = None
+    vis = getattr(mesh, "visual", None)
+    if uv is None and getattr(vis, "kind", None) == "vertex":
+        colors = np.asarray(vis.vertex_colors, dtype=np.uint8)[:, :3]
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
     if uv is not None:
         fields += [("texture_u", "<f4"), ("texture_v", "<f4")]
+    if colors is not None:
+        fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
     vert = np.empty(len(v), dtype=np.dtype(fields))
     for i, c in enumerate("xyz"):
         vert[c] = v[:, i]
         vert["n" + c] = n[:, i]
     if uv is not None:
         vert["texture_u"], vert["texture_v"] = uv[:, 0], uv[:, 1]
+    if colors is not None:
+        vert["red"], vert["green"], vert["blue"] = colors[:, 0], colors[:, 1], colors[:, 2]
     face = np.empty(len(f), dtype=np.dtype([("n", "u1"), ("idx", "<i4", (3,))]))
     face["n"] = 3
     face["idx"] = f
     head = ["ply", "format binary_little_endian 1.0", "comment ycbvss generated (units: mm)"]
-    if texture_name is not None and texture_rgb is not None:
+    if textured:
         head.append(f"comment TextureFile {texture_name}")
     head.append(f"element vertex {len(v)}")
-    head += [f"property float {name}" for name, _ in fields]
+    head += [f"property {'uchar' if dt == 'u1' else 'float'} {name}" for name, dt in fields]
     head += [f"element face {len(f)}", "property list uchar int vertex_indices", "end_header"]
-    if texture_name is not None and texture_rgb is not None:
+    if textured:
         import cv2
         bgr = cv2.cvtColor(np.ascontiguousarray(texture_rgb[..., :3]), cv2.COLOR_RGB2BGR)
         with atomic_path(path.parent / texture_name, ".png") as tmp:   # fast: level 1 + RLE
