@@ -350,7 +350,7 @@ def test_real_ycbv_frame_masks_match_label_png(ycbv_root):
     meta = scipy.io.loadmat(ycbv_root / "data" / "0000" / "000001-meta.mat")
     label = cv2.imread(str(ycbv_root / "data" / "0000" / "000001-label.png"), cv2.IMREAD_UNCHANGED)
     ids = meta["cls_indexes"].ravel().astype(int)
-    rr, items = Renderer(), []
+    rr, items = Renderer(max_texture_px=64), []  # colour is not used here
     for k, i in enumerate(ids):
         m = trimesh.load(ycbv_root / "models" / classes[i - 1] / "textured.obj", force="mesh", process=False)
         m.apply_scale(1000.0)
