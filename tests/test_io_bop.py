@@ -195,3 +195,28 @@ def test_annotation_only_scene_loads_without_images(bop):
     f = load_dataset(bop, "test").load_scene(48).frames[0]
     assert f.rgb_path is None and f.depth_path is None and (f.camera.width, f.camera.height) == (64, 48)
     assert len(f.instances) == 2
+
+
+@pytest.mark.parametrize("case", ["gt_truncated", "in_metres", "unknown_obj_in_results", "K_singular"])
+def test_cli_reports_bad_bop_input_in_one_line(bop, tmp_path, capsys, case):
+    """Through `ycbvss eval` (which reads the BOP files with this data layer): exit 2, one line."""
+    from ycbvss.cli import main
+    csv = tmp_path / "res.csv"
+    write_bop19_csv(csv, [Estimate(48, 1, 5 if case == "unknown_obj_in_results" else 2, 0.9,
+                                   _pose([0, 0, 0.1], [0, 0, 900]))])
+    if case == "gt_truncated":
+        p = bop / GT
+        p.write_text(p.read_text()[:80])
+        expect = "scene_gt.json"
+    elif case == "in_metres":
+        _edit(bop / "models/models_info.json", lambda d: d["1"].__setitem__("diameter", 0.172))
+        expect = "apparently in metres"
+    elif case == "K_singular":
+        _edit(bop / CAM, lambda d: d["2"].__setitem__("cam_K", [0] * 9))
+        expect = "scene_camera.json: scene 48 frame 2"
+    else:
+        expect = "res.csv"
+    rc = main(["eval", "--dataset", str(bop), "--split", "test", "--results", str(csv),
+               "--out", str(tmp_path / "ev"), "--no-curves"])
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and "warning" not in ln]
+    assert rc == 2 and len(err) == 1 and expect in err[0] and "Traceback" not in err[0], err
