@@ -9,12 +9,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ycbvss.camera import backproject
 from ycbvss.errors import YcbvssError
 from ycbvss.geometry.se3 import interpolate_T, inv_T
 from ycbvss.geometry.so3 import is_rotation, rotation_angle_deg
 
 from .edge import edge_field
+from .jacobians import backproject_px
 from .init import initialise, sample_model_points, symmetry_transforms
 from .matching import FlowOptions, dense_flow, flow_matches, normalize_for_flow
 from .problem import BundleProblem, View
@@ -166,7 +166,7 @@ class _Stage:
                                     == vr.label_of(j))
                     if not ok.any():
                         continue
-                    Y = backproject(pb.views[i].K, xs[ok], d[ok])
+                    Y = backproject_px(pb.views[i].K, xs[ok], d[ok])
                     Pinv = inv_T(pb.pose(i, j))
                     groups.append(PointGroup(i, j, Y @ Pinv[:3, :3].T + Pinv[:3, 3], xd[ok]))
             self._point_term = PointTerm(groups, weight=opt.alpha, rho=opt.rho)
@@ -197,7 +197,7 @@ class _Stage:
                 d = vr.depth_mm[xs[:, 1].round().astype(int), xs[:, 0].round().astype(int)].astype(float)
                 ok = d > 0
                 if ok.any():
-                    groups.append(TemporalGroup(i, k, backproject(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
+                    groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
             terms.append(TemporalTerm(groups, weight=opt.beta, rho=opt.rho))
             self._t("temporal_matching_s", time.perf_counter() - t0)
         return terms

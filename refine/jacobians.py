@@ -72,3 +72,23 @@ def transfer_point_jacobians(K_i: np.ndarray, T_c_i: np.ndarray, T_c_k: np.ndarr
     J_i = Ju @ _point_jac(Y_i)
     J_k = -(Ju @ (T_ik[:3, :3] @ _point_jac(Y_k)))
     return uv, J_i, J_k, valid
+
+
+def backproject_px(K: np.ndarray, uv: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """Pixels uv (N, 2) with z-depth (N,) -> camera points (N, 3) (closed-form K^-1, incl. skew)."""
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    d = np.asarray(depth, dtype=np.float64).reshape(-1)
+    fx, fy, s, cx, cy = K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2]
+    y = (uv[:, 1] - cy) / fy
+    x = (uv[:, 0] - cx - s * y) / fx
+    return np.stack([x * d, y * d, d], axis=1)
+
+
+def project_points(K: np.ndarray, T: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels (N, 2) of points X (N, 3) under T (4x4), valid (N,) (no Jacobians: the cheap path)."""
+    Y = np.asarray(X, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
+    Z = Y[:, 2]
+    valid = np.isfinite(Y).all(axis=1) & (Z > MIN_Z_MM)
+    Zs = np.where(valid, Z, 1.0)
+    x, y = Y[:, 0] / Zs, Y[:, 1] / Zs
+    return np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1), valid

@@ -8,9 +8,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ycbvss.camera import backproject
 from ycbvss.geometry.se3 import inv_T
 
+from .jacobians import backproject_px
 from .edge import contour_points, interior_points, subsample
 
 _RENDERER = None
@@ -89,7 +89,7 @@ def edge_samples(vr: ViewRender, j: int, K: np.ndarray, n_max: int, rng: np.rand
     uv = np.concatenate([uv_c[ic], uv_i[ii]])
     d = np.concatenate([d_c[ic], d_i[ii]])
     ok = d > 0
-    Y = backproject(K, uv[ok], d[ok])
+    Y = backproject_px(K, uv[ok], d[ok])
     P = vr.poses[lab - 1]
     return Y @ inv_T(P)[:3, :3].T + inv_T(P)[:3, 3]
 

@@ -20,7 +20,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .edge import EdgeField, sample_field
-from .jacobians import object_point_jacobians, transfer_point_jacobians
+from .edge import sample_bilinear
+from .jacobians import object_point_jacobians, project_points, transfer_point_jacobians
+from ycbvss.geometry.se3 import inv_T
 from .problem import BundleProblem
 
 
@@ -38,9 +40,14 @@ def psd2(H: np.ndarray, floor: float = 0.0) -> np.ndarray:
     """Project symmetric 2x2 matrices (N, 2, 2) to PSD (eigenvalues clamped at ``floor``)."""
     if len(H) == 0:
         return H
-    w, V = np.linalg.eigh(0.5 * (H + np.swapaxes(H, 1, 2)))
-    w = np.maximum(w, floor)
-    return (V * w[:, None, :]) @ np.swapaxes(V, 1, 2)
+    a, b, c = H[:, 0, 0], 0.5 * (H[:, 0, 1] + H[:, 1, 0]), H[:, 1, 1]
+    m, r = 0.5 * (a + c), np.sqrt(0.25 * (a - c) ** 2 + b * b)
+    l1, l2 = m + r, m - r                              # eigenvalues, l1 >= l2
+    th = 0.5 * np.arctan2(2 * b, a - c)                # eigenvector of l1: (cos th, sin th)
+    e1 = np.stack([np.cos(th), np.sin(th)], 1)
+    e2 = np.stack([-np.sin(th), np.cos(th)], 1)
+    l1, l2 = np.maximum(l1, floor), np.maximum(l2, floor)
+    return (l1[:, None, None] * e1[:, :, None] * e1[:, None, :] + l2[:, None, None] * e2[:, :, None] * e2[:, None, :])
 
 
 @dataclass
@@ -73,7 +80,13 @@ class EdgeTerm:
         return E, grad, H, ok, Jc, Jo
 
     def cost(self, pb: BundleProblem) -> float:
-        return self.weight * float(sum(self._eval(pb, gr, False)[0].sum() for gr in self.groups))
+        tot = 0.0
+        for gr in self.groups:
+            uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
+            uv = np.where(valid[:, None], uv, -1e9)
+            E = sample_bilinear(self.fields[gr.i].data[..., :1], uv, outside=np.ones(1))[0][:, 0]
+            tot += float(np.where(valid, E, 1.0).sum())
+        return self.weight * tot
 
     def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
         total, out = 0.0, []
@@ -133,7 +146,8 @@ class PointTerm:
     def cost(self, pb: BundleProblem) -> float:
         tot = 0.0
         for gr in self.groups:
-            r = self._res(pb, gr)[0]
+            uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
+            r = np.where(valid[:, None], gr.x - uv, 1e6)
             tot += robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)[0].sum()
         return self.weight * float(tot)
 
@@ -182,7 +196,9 @@ class TemporalTerm:
     def cost(self, pb: BundleProblem) -> float:
         tot = 0.0
         for gr in self.groups:
-            tot += robust_cost_weights(self._res(pb, gr)[0], self.rho, self.floor_px, self.cap_px)[0].sum()
+            uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ inv_T(pb.T_c[gr.k]), gr.Y_k)
+            r = np.where(valid[:, None], gr.x - uv, 1e6)
+            tot += robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)[0].sum()
         return self.weight * float(tot)
 
     def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
