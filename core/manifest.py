@@ -161,10 +161,12 @@ def find_symmetries(mesh_mm, rel_tol: float = 0.05) -> dict:
     """Axis-aligned geometric symmetries of a mesh in its own (bbox-centred, mm) frame.
 
     Candidates: continuous rotation about x, y, z (checked at 30/60/120/180 deg); 180 deg
-    rotations about x, y, z; 90 deg about an axis whose 180-deg flip is accepted. A candidate is accepted when the max
-    distance of the transformed vertices to the original surface is <= ``rel_tol`` * diameter.
-    Accepted 180-deg flips are closed under composition (two imply the third). Texture ignored
-    (as BOP's symmetries). Returns ``{"symmetries_discrete": [16-lists], "symmetries_continuous":
+    rotations about x, y, z; 90 deg about an axis whose 180-deg flip is accepted. A candidate
+    is accepted when the max distance of the transformed vertices to the original surface is
+    <= ``rel_tol`` * diameter. Accepted 180-deg flips are closed under composition (two imply
+    the third); with a continuous axis one perpendicular flip is kept. Texture is ignored (as
+    BOP's symmetries). Not handled: oblique axes and full dihedral closure of a 90-deg axis
+    with perpendicular flips (none occurs among the YCB-V objects at this tolerance). Returns ``{"symmetries_discrete": [16-lists], "symmetries_continuous":
     [{"axis", "offset"}], "max_dev_mm": {candidate: mm}}``.
     """
     from .io.mesh import diameter_mm
