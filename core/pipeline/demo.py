@@ -60,18 +60,24 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
     root = Path(o.out) / "dataset"
     with stages.stage("build procedural scene"):
         scene = make_scene(seed=o.seed, n_frames=o.frames, width=o.width, height=o.height)
-    with stages.stage(f"render {o.frames} frames ({o.renderer})"):
-        if o.renderer == "blender":
-            from ..procedural.blender import render_blender
-            it = render_blender(scene, root / "models", Path(o.out) / "work" / "blender", samples=o.samples,
-                                denoise=True, workers=o.workers)
-        else:
-            write_models(scene, root / "models")
-            it = render_fast(scene)
+    with stages.stage(f"render {o.frames} frames ({o.renderer}, {o.width}x{o.height})"):
         writer = BopSceneWriter(root / "test", scene.scene_id)
         frames = {f.im_id: f for f in scene.frames}
-        for im_id, rgb, depth in progress(it, desc=f"render ({o.renderer})", total=len(scene.frames), unit="frame"):
-            writer.write_frame(frames[im_id], rgb=rgb, depth_mm=depth)
+        if o.renderer == "blender":
+            from ..procedural.blender import render_blender
+            bar = progress(desc="render (Blender Cycles)", total=len(scene.frames), unit="frame")
+            it = render_blender(scene, root / "models", Path(o.out) / "work" / "blender", samples=o.samples,
+                                denoise=True, workers=o.workers, on_frame=lambda: bar.update(1))
+            try:
+                for im_id, rgb, depth in it:
+                    writer.write_frame(frames[im_id], rgb=rgb, depth_mm=depth)
+            finally:
+                bar.close()
+        else:
+            write_models(scene, root / "models")
+            for im_id, rgb, depth in progress(render_fast(scene), desc="render (fast)", total=len(scene.frames),
+                                              unit="frame"):
+                writer.write_frame(frames[im_id], rgb=rgb, depth_mm=depth)
         writer.close()
     return root, scene
 

@@ -230,7 +230,7 @@ def write_html(path: Path, title: str, info: list[tuple[str, str]], sections: li
 
 # ----------------------------------------------------------------------------- writers
 def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refined, errs, stages, originals,
-                             src_layout) -> dict:
+                             src_layout, errs_kf: dict | None = None) -> dict:
     from .validate import means
     tdir, fdir, pdir = out / "tables", out / "figures", out / "poses"
     files: list[Path] = []
@@ -241,19 +241,23 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
                         "(Li et al., YCBV-SS) and BCOT's binocular results, for reference only (other data).")
     files += write_tables(t4, tdir, "table4")
     t5 = None
-    if len(errs) > 2:
-        t5 = table5({k: v for k, v in errs.items() if k != "initial"},
-                    caption="Ablation: the same initial poses refined with one cost term removed (best in bold). "
-                            "Below the rule: the paper's Table 5.")
+    if errs_kf:
+        n_kf = len({k for e in errs_kf["using all"].values() for k in e["keys"]})
+        t5 = table5({k: v for k, v in errs_kf.items() if k != "initial"},
+                    caption=f"Ablation on the keyframes ({n_kf} (view, object) pairs): the same initial poses refined "
+                            "with one cost term removed (best in bold). Below the rule: the paper's Table 5.")
         files += write_tables(t5, tdir, "table5")
-    ts = summary_table(errs, pr)
+    ts = summary_table({**errs, **{f"{k} (keyframes)": v for k, v in (errs_kf or {}).items()
+                                   if k not in ("initial", "using all")}}, pr)
     files += write_tables(ts, tdir, "summary")
     files.append(write_poses_csv(pdir / "initial_poses.csv", pr.poses))
     files.append(write_poses_csv(pdir / "refined_poses.csv", refined["using all"]))
     for v in refined:
         if v not in ("using all", "_stats"):
             files.append(write_poses_csv(pdir / f"refined_{v.replace('/', '').replace(' ', '_')}.csv", refined[v]))
-    files.append(write_errors_csv(pdir / "errors_per_pose.csv", errs))
+    files.append(write_errors_csv(pdir / "errors_per_pose.csv",
+                                  {**errs, **{f"{k} (keyframes)": v for k, v in (errs_kf or {}).items()
+                                              if k not in ("initial", "using all")}}))
     curve_paths = _curves(fdir, errs, models)
     ov = _overlays(fdir, scenes, models, {"initial": pr.poses, "refined": refined["using all"]}, gt,
                    opts.overlays, originals, image_label="YCBV-SS" if not opts.gt_exact else "rendered")
@@ -266,7 +270,7 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
         "initial": {"target_add_mm": pr.target_add_mm, "target_prj_px": pr.target_prj_px,
                     "achieved_add_mm": pr.add_mm, "achieved_prj_px": pr.prj_px, **m_init},
         "refined": m_ref,
-        "variants": {v: means(e) for v, e in errs.items() if v != "initial"},
+        "variants_keyframes": {v: means(e) for v, e in (errs_kf or {}).items()},
         "refine_stats": {v: {str(s): d for s, d in st.items()} for v, st in refined["_stats"].items()},
         "timings_s": dict(stages.times), **(opts.extra_info or {}),
     }
