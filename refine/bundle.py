@@ -19,7 +19,7 @@ from .init import initialise, sample_model_points, symmetry_transforms
 from .matching import FlowOptions, dense_flow, flow_matches, normalize_for_flow
 from .problem import BundleProblem, View
 from .solver import SolverOptions, covariance, run_lm
-from .templates import composite, edge_samples, ensure_meshes, get_renderer, object_mask, render_view
+from .templates import composite, view_edge_samples, ensure_meshes, get_renderer, object_mask, render_view
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .uncertainty import pose_sigmas
 
@@ -53,7 +53,7 @@ class RefineOptions:
     n_matches: int = 1000
     match_erode_px: int = 6
     flow_margin_px: int = 24
-    match_every: int = 2              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
+    match_every: int = 3              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
     min_visible_px: int = 30
@@ -134,10 +134,12 @@ class _Stage:
         if opt.use_edge:
             t0 = time.perf_counter()
             groups = []
-            for (i, j) in sorted(vis):
-                X = edge_samples(renders[i], j, pb.views[i].K, opt.n_edge_points, self.rng)
-                if len(X):
-                    groups.append(EdgeGroup(i, j, X))
+            for i, vr in renders.items():
+                if not any((i, j) in vis for j in vr.obj_index):
+                    continue
+                for j, X in view_edge_samples(vr, pb.views[i].K, opt.n_edge_points, self.rng).items():
+                    if (i, j) in vis and len(X):
+                        groups.append(EdgeGroup(i, j, X))
             sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
             terms.append(EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
                                   curv_floor=opt.edge_curv_floor / sig))

@@ -164,7 +164,7 @@ def _contour_points(inst, depth, label, full_shape, origin):
 
 
 def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 25.0,
-                 depth_jump_rel: float = 0.03) -> tuple[np.ndarray, np.ndarray]:
+                 depth_jump_rel: float = 0.03, inst: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Geometric edges of a rendered template (H, W) bool: the normal turns by more than
     ``min_angle_deg`` or the depth jumps (self-occlusion) towards the right/lower neighbour; the
     edge is marked on the nearer pixel with an offset (H, W, 2) of half a pixel towards the other
@@ -178,6 +178,8 @@ def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 2
         n0, n1 = normal[: H - dv, : W - du], normal[dv:, du:]
         d0, d1 = depth[: H - dv, : W - du], depth[dv:, du:]
         both = (d0 > 0) & (d1 > 0)
+        if inst is not None:     # only within one object (between objects it is a contour, not a crease)
+            both &= inst[: H - dv, : W - du] == inst[dv:, du:]
         e = both & (((n0 * n1).sum(-1) < c) | (np.abs(d0 - d1) > depth_jump_rel * np.minimum(d0, d1)))
         near0 = d0 <= d1
         a, b = e & near0, e & ~near0
@@ -239,3 +241,71 @@ def subsample(n_max: int, n: int, rng: np.random.Generator) -> np.ndarray:
     if n <= n_max:
         return np.arange(n)
     return np.sort(np.argpartition(rng.random(n), n_max)[:n_max])
+
+
+def all_contour_points(inst: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,)."""
+    H, W = inst.shape
+    m = inst > 0
+    if not m.any():
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
+    ys, xs = np.nonzero(m.any(axis=1))[0], np.nonzero(m.any(axis=0))[0]
+    y0, x0 = max(ys[0] - 1, 0), max(xs[0] - 1, 0)
+    y1, x1 = min(ys[-1] + 2, H), min(xs[-1] + 2, W)
+    ic, dc = inst[y0:y1, x0:x1], depth[y0:y1, x0:x1]
+    h, w = ic.shape
+    pad_i = np.pad(ic, 1, constant_values=-1)
+    pad_d = np.pad(dc, 1, constant_values=0)
+    dirs = np.zeros((h, w, 2), np.float32)
+    is_c = np.zeros((h, w), bool)
+    mc = ic > 0
+    for dv, du in _N4:
+        ni = pad_i[1 + dv:1 + dv + h, 1 + du:1 + du + w]
+        nd = pad_d[1 + dv:1 + dv + h, 1 + du:1 + du + w]
+        edge = mc & (ni != ic) & (ni != -1) & ((ni == 0) | (nd > dc))
+        is_c |= edge
+        dirs[edge] += (du, dv)
+    if y0 == 0:
+        is_c[0, :] = False
+    if x0 == 0:
+        is_c[:, 0] = False
+    if y1 == H:
+        is_c[-1, :] = False
+    if x1 == W:
+        is_c[:, -1] = False
+    v, u = np.nonzero(is_c)
+    d = dirs[v, u]
+    n = np.linalg.norm(d, axis=1, keepdims=True)
+    d = np.where(n > 0, d / np.maximum(n, 1e-9), 0.0)
+    uv = np.stack([u + x0, v + y0], 1).astype(np.float64) + 0.5 * d
+    return uv, dc[v, u].astype(np.float64), ic[v, u].astype(int)
+
+
+def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, normal: np.ndarray | None,
+                        canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,)."""
+    H, W = inst.shape
+    m = inst > 0
+    if not m.any():
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
+    ys, xs = np.nonzero(m.any(axis=1))[0], np.nonzero(m.any(axis=0))[0]
+    y0, x0 = max(ys[0] - 2, 0), max(xs[0] - 2, 0)
+    y1, x1 = min(ys[-1] + 3, H), min(xs[-1] + 3, W)
+    ic = inst[y0:y1, x0:x1]
+    lab = ic.astype(np.float32)
+    k = np.ones((2 * erode_px + 1, 2 * erode_px + 1), np.uint8)
+    inside = (ic > 0) & (cv2.erode(lab, k) == lab) & (cv2.dilate(lab, k) == lab) if erode_px > 0 else ic > 0
+    gray = cv2.cvtColor(np.ascontiguousarray(color[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
+    edges = (cv2.Canny(gray, canny_lo, canny_hi) > 0) & inside
+    v, u = np.nonzero(edges)
+    uv = np.stack([u, v], 1).astype(np.float64) + subpixel_offsets(gray, v, u)
+    dep, labs = depth[v + y0, u + x0], ic[v, u]
+    if normal is not None:
+        ce, off = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1], inst=ic)
+        ce &= inside & ~edges
+        v2, u2 = np.nonzero(ce)
+        uv = np.concatenate([uv, np.stack([u2, v2], 1) + off[v2, u2]])
+        dep = np.concatenate([dep, depth[v2 + y0, u2 + x0]])
+        labs = np.concatenate([labs, ic[v2, u2]])
+    return uv + (x0, y0), dep.astype(np.float64), labs.astype(int)

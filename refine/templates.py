@@ -11,7 +11,7 @@ import numpy as np
 from ycbvss.geometry.se3 import inv_T
 
 from .jacobians import backproject_px
-from .edge import contour_points, interior_points, subsample
+from .edge import all_contour_points, all_interior_points, contour_points, interior_points, subsample
 
 _RENDERER = None
 
@@ -92,6 +92,27 @@ def edge_samples(vr: ViewRender, j: int, K: np.ndarray, n_max: int, rng: np.rand
     Y = backproject_px(K, uv[ok], d[ok])
     P = vr.poses[lab - 1]
     return Y @ inv_T(P)[:3, :3].T + inv_T(P)[:3, 3]
+
+
+def view_edge_samples(vr: ViewRender, K: np.ndarray, n_max: int, rng: np.random.Generator,
+                      erode_px: int = 2) -> dict[int, np.ndarray]:
+    """:func:`edge_samples` for every rendered object of the view in one pass: {j: X (N, 3) mm}."""
+    uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm)
+    uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal, erode_px=erode_px)
+    out = {}
+    for lab0, j in enumerate(vr.obj_index):
+        lab = lab0 + 1
+        ci, ii_ = np.flatnonzero(l_c == lab), np.flatnonzero(l_i == lab)
+        n_i = min(len(ii_), n_max // 2)
+        n_c = min(len(ci), n_max - n_i)
+        sel_i = ii_[subsample(n_i, len(ii_), rng)]
+        sel_c = ci[subsample(n_c, len(ci), rng)]
+        uv = np.concatenate([uv_c[sel_c], uv_i[sel_i]])
+        d = np.concatenate([d_c[sel_c], d_i[sel_i]])
+        ok = d > 0
+        Pinv = inv_T(vr.poses[lab0])
+        out[j] = backproject_px(K, uv[ok], d[ok]) @ Pinv[:3, :3].T + Pinv[:3, 3]
+    return out
 
 
 def object_mask(vr: ViewRender, j: int, erode_px: int = 2) -> np.ndarray:
