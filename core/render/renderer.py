@@ -39,7 +39,9 @@ class RenderOutput:
 
     ``depth_mm`` (H, W) float32 camera z in mm, 0 on background; ``instance`` (H, W) int32, k+1 where
     ``items[k]`` is the front-most surface, 0 on background; ``normal_cam`` (H, W, 3) float32 unit normals in
-    the camera frame (0 on background); ``color`` (H, W, 3) uint8 RGB; ``masks_all`` / ``depth_all_mm``:
+    the camera frame, interpolated smooth vertex normals (seam duplicates merged), flipped towards the camera
+    on back faces of open meshes, 0 on background; ``color`` (H, W, 3) uint8 RGB albedo (texture, vertex
+    colour or grey 0.6; 0 on background); ``masks_all`` / ``depth_all_mm``:
     per-item unoccluded silhouettes (bool) and depths (float32, 0 outside), with ``"mask_all"``.
     """
 
