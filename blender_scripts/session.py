@@ -20,10 +20,11 @@ import numpy as np
 from .camera import CV_TO_BLENDER_CAM, blender_camera_params, border_from_bbox, projected_bbox
 
 DEFAULT_LIGHTS = [
-    # direction the light travels, in the OpenCV camera frame (from upper left behind the camera)
-    {"type": "SUN", "direction_cam": [0.3, 0.5, 1.0], "strength": 3.0, "angle_deg": 25.0},
+    # direction the light travels, in the OpenCV camera frame: from above and slightly behind/left of a camera
+    # looking down at a table (like room lighting), so top faces are brighter than front faces
+    {"type": "SUN", "direction_cam": [0.25, 1.0, 0.6], "strength": 3.5, "angle_deg": 25.0},
 ]
-DEFAULT_WORLD_STRENGTH = 0.8
+DEFAULT_WORLD_STRENGTH = 0.7
 GREY = (0.6, 0.6, 0.6)
 
 

@@ -46,7 +46,7 @@ def register(sub) -> None:
     p.add_argument("--read-noise", type=float, default=4e-3, help="read noise sigma (linear units)")
     p.add_argument("--blur", type=float, default=0.0, help="Gaussian blur sigma of the render (px)")
     p.add_argument("--no-colour-fit", action="store_true")
-    p.add_argument("--colour-fit-method", choices=["mk", "lsq"], default="mk")
+    p.add_argument("--colour-fit-method", choices=["adaptive", "lsq", "mk"], default="adaptive")
     p.add_argument("--coverage-stride", type=int, default=1, help="use every N-th frame for the coverage search")
     p.add_argument("--scales", help="fixed model scales per object, e.g. 8:1.02,14:1.03 (skips the coverage choice)")
     p.add_argument("--max-frames", type=int, default=None, help="first N frames per scene")
