@@ -58,6 +58,7 @@ def main() -> None:
     ap.add_argument("--arc", type=float, default=40.0)
     ap.add_argument("--seeds", type=int, nargs="+", default=[1])
     ap.add_argument("--accuracy", action="store_true")
+    ap.add_argument("--opt", nargs="*", default=[], help="RefineOptions overrides, e.g. alpha=5 max_iters=4")
     args = ap.parse_args()
     os.environ.setdefault("YCBVSS_NO_PROGRESS", "1")
     import warnings
@@ -65,10 +66,12 @@ def main() -> None:
     warnings.simplefilter("ignore")
     from ycbvss.refine import RefineOptions, refine_scene
 
-    configs = {"using all": RefineOptions()}
+    over = {k: eval(v) for k, v in (a.split("=", 1) for a in args.opt)}
+    configs = {"using all": RefineOptions(**over)}
     if args.accuracy:
-        configs.update({"w/o f_edge": RefineOptions(use_edge=False), "w/o f_point": RefineOptions(use_point=False),
-                        "w/o f_t": RefineOptions(use_temporal=False)})
+        configs.update({"w/o f_edge": RefineOptions(**{**over, "use_edge": False}),
+                        "w/o f_point": RefineOptions(**{**over, "use_point": False}),
+                        "w/o f_t": RefineOptions(**{**over, "use_temporal": False})})
     agg: dict[str, list] = {"init (scene-consistent)": [], "init (per view)": []}
     per_obj: dict[str, dict] = {}
     for seed in args.seeds:
@@ -76,21 +79,23 @@ def main() -> None:
         names = {o: m.name for o, m in ps.models.items()}
         agg["init (per view)"].append(errors(ps, init, gt))
         for cname, opt in configs.items():
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             res = refine_scene(ps.scene, ps.models, init, opt, images=imgs)
-            dt = time.perf_counter() - t0
+            dt, dc = time.perf_counter() - t0, time.process_time() - c0
             n = len(res.poses)
             if cname == "using all":
                 agg["init (scene-consistent)"].append(errors(ps, res.init_poses, gt))
                 print(f"seed {seed}: {len(ps.frames)} frames x {len(ps.models)} objects, {args.width}x{args.width*3//4}, "
                       f"baseline {ps.baseline_deg:.1f} deg: {dt:.1f} s total = {dt / n:.3f} s per frame*object "
-                      f"(converged={res.converged})")
+                      f"(converged={res.converged}); process CPU {dc:.1f} s = {dc / n:.3f} s per frame*object; "
+                      f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
                 st = res.stats
                 parts = {k: v for k, v in st.items() if k.endswith("_s") and k != "total_s"}
                 other = st["total_s"] - sum(parts.values())
                 print("  time breakdown (s): " + ", ".join(f"{k[:-2]} {v:.2f}" for k, v in parts.items())
                       + f", other {other:.2f}")
                 e = errors(ps, res.poses, gt)
+                print("  refined per object: " + "; ".join(f"{o}: ADD {v['ADD']:.2f} PRJ {v['PRJ']:.2f}" for o, v in e.items()))
                 for o in e:
                     per_obj.setdefault(f"{o} {names[o]}", []).append(e[o])
             agg.setdefault(cname, []).append(errors(ps, res.poses, gt))

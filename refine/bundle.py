@@ -181,12 +181,15 @@ class _Stage:
                 if k not in renders:
                     renders[k] = self.render(k)
                 vr = renders[k]
-                if (k, i) not in self._flows:
-                    y0, y1, x0, x1 = _bbox(vr.instance > 0, 2 * opt.flow_margin_px)
-                    a = normalize_for_flow(pb.views[k].image[y0:y1, x0:x1])
-                    b = normalize_for_flow(pb.views[i].image[y0:y1, x0:x1])
-                    self._flows[(k, i)] = ((dense_flow(a, b, opt.flow), dense_flow(b, a, opt.flow)), (y0, y1, x0, x1))
-                flows, (y0, y1, x0, x1) = self._flows[(k, i)]
+                key = (min(k, i), max(k, i))
+                if key not in self._flows:        # one forward/backward flow pair serves both directions
+                    both = (vr.instance > 0) | ((renders[i].instance > 0) if i in renders else False)
+                    y0, y1, x0, x1 = _bbox(both, 2 * opt.flow_margin_px)
+                    a = normalize_for_flow(pb.views[key[0]].image[y0:y1, x0:x1])
+                    b = normalize_for_flow(pb.views[key[1]].image[y0:y1, x0:x1])
+                    self._flows[key] = ((dense_flow(a, b, opt.flow), dense_flow(b, a, opt.flow)), (y0, y1, x0, x1))
+                (fab, fba), (y0, y1, x0, x1) = self._flows[key]
+                flows = (fab, fba) if k == key[0] else (fba, fab)
                 m = np.zeros(vr.instance.shape, bool)
                 for j in vr.obj_index:
                     m |= object_mask(vr, j, opt.match_erode_px)

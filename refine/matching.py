@@ -16,7 +16,7 @@ class FlowOptions:
     """Farneback parameters, reciprocal-check threshold and corner detector settings."""
 
     pyr_scale: float = 0.5
-    levels: int = 4
+    levels: int = 3
     winsize: int = 15
     iterations: int = 3
     poly_n: int = 5
