@@ -45,8 +45,8 @@ class RefineOptions:
     max_iters: int = 6
     coarse_iters: int = 2
     inner_iters: int = 4
-    edge_sigmas_px: tuple[float, ...] = (4.0, 2.0, 1.0)
-    nonkey_sigmas_px: tuple[float, ...] = (2.0, 1.0)
+    edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px scaled by image width / 640 (>= 1)
+    nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (2, 1) px scaled likewise
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
     edge_norm_percentile: float = 100.0
@@ -257,6 +257,16 @@ def _max_change(a, b) -> tuple[float, float]:
     return dt, dr
 
 
+def auto_sigmas(base: tuple[float, ...], width: int) -> tuple[float, ...]:
+    """Coarse-to-fine blur levels for an image ``width`` px wide from levels defined at 640 px."""
+    out: list[float] = []
+    for b in base:
+        s = max(1.0, round(b * width / 640.0, 2))
+        if s not in out:
+            out.append(s)
+    return tuple(out)
+
+
 def _keyframes(n: int, step: int) -> list[int]:
     if step is None or step <= 1 or n <= 2:
         return list(range(n))
@@ -351,7 +361,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     pb.obj_known = known
     stage = _Stage(pb, models, opt, log, stats, list(range(len(kf))),
                    _pairs(list(range(len(kf))), opt.temporal_neighbours) if len(kf) > 1 else [], "keyframes")
-    terms_kf = stage.run(opt.edge_sigmas_px)
+    terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas((8.0, 4.0, 2.0, 1.0), views[0].width))
     converged = stage.converged
     visible = {(views[kf[i]].im_id, obj_ids[j]) for (i, j) in stage.visible}
     cov_kf = covariance(pb, terms_kf) if (opt.compute_uncertainty and terms_kf) else None
@@ -389,7 +399,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         pbn.obj_known = known
         nk_pairs = [(k, i) for (k, i) in _pairs(list(range(n)), opt.temporal_neighbours) if i in set(nonkey)]
         st2 = _Stage(pbn, models, opt, log, stats, nonkey, nk_pairs, "frames")
-        terms_nk = st2.run(opt.nonkey_sigmas_px)
+        terms_nk = st2.run(opt.nonkey_sigmas_px or auto_sigmas((2.0, 1.0), views[0].width))
         converged = converged and st2.converged
         visible |= {(views[i].im_id, obj_ids[j]) for (i, j) in st2.visible}
         T_c = pbn.T_c.copy()
