@@ -39,7 +39,7 @@ def register(sub) -> None:
     p.add_argument("--executor", choices=["local", "ray"], default="local")
     p.add_argument("--address", default=None, help="Ray address (e.g. auto)")
     p.add_argument("--chunk", type=int, default=8, help="frames per Ray task")
-    p.add_argument("--samples", type=int, default=8, help="Cycles samples per pixel")
+    p.add_argument("--samples", type=int, default=4, help="Cycles samples per pixel")
     p.add_argument("--denoise", action="store_true", help="OpenImageDenoise (slower)")
     p.add_argument("--max-bounces", type=int, default=1)
     p.add_argument("--shot-noise", type=float, default=2e-3, help="shot noise variance per unit linear signal")

@@ -78,7 +78,7 @@ def _orig_visible(task: dict, obj: dict, label: np.ndarray | None, H: int, W: in
 def process_frame(worker, config: dict, task: dict) -> dict:
     """Synthesise one frame. ``config``: run-wide settings; ``task``: the frame. Returns the marker dict."""
     from ..io.images import read_depth_mm, read_label, read_rgb
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     split_dir = Path(config["split_dir"])
     sid, iid = int(task["scene_id"]), int(task["im_id"])
     wh = f"scene {sid} frame {iid}"
@@ -118,7 +118,7 @@ def process_frame(worker, config: dict, task: dict) -> dict:
             return skip(f"object {ob['obj_id']}: {why}")
         objs.append({**ob, "key": key, "T": T})
     # ---- full silhouettes (fast renderer) -> drop objects fully outside the image
-    t_gt0 = time.perf_counter()
+    t_gt0, c_gt0 = time.perf_counter(), time.process_time()
     out_all = fast.render(K, W, H, [(o["key"], o["T"]) for o in objs], outputs=("mask_all",)) if objs else None
     kept = []
     for k, o in enumerate(objs):
@@ -129,7 +129,7 @@ def process_frame(worker, config: dict, task: dict) -> dict:
             continue
         o["mask_all"] = out_all.masks_all[k]
         kept.append(o)
-    t_gt = time.perf_counter() - t_gt0
+    t_gt, c_gt = time.perf_counter() - t_gt0, time.process_time() - c_gt0
     # ---- Blender render of all objects together
     rc = config["render"]
     frame = {"id": f"{sid}_{iid}", "K": K.tolist(),
@@ -145,7 +145,7 @@ def process_frame(worker, config: dict, task: dict) -> dict:
     worker.session.warnings[:] = []
     t_render = res["render_s"]
     # ---- composite, colour fit, noise
-    t_c0 = time.perf_counter()
+    t_c0, c_c0 = time.perf_counter(), time.process_time()
     rng = np.random.default_rng([seed, sid, iid])
     cobjs = [CompositeObject(k + 1, int(o["obj_id"]), _orig_visible(task, o, label, H, W)) for k, o in enumerate(kept)]
     noise = NoiseParams(**config.get("noise", {}))
@@ -155,9 +155,9 @@ def process_frame(worker, config: dict, task: dict) -> dict:
     index = res["index"]
     obj_px = index > 0
     out_depth = merge_depth(depth, res["depth_mm"], obj_px & (res["depth_mm"] > 0))
-    t_comp = time.perf_counter() - t_c0
+    t_comp, c_comp = time.perf_counter() - t_c0, time.process_time() - c_c0
     # ---- GT, files
-    t_w0 = time.perf_counter()
+    t_w0, c_w0 = time.perf_counter(), time.process_time()
     ds_out = float(task["depth_scale"])
     files = FrameFiles(wh)
     try:
@@ -182,11 +182,13 @@ def process_frame(worker, config: dict, task: dict) -> dict:
             objects.append({"obj_id": int(o["obj_id"]), "src_gt_idx": o.get("gt_idx"), **cstats[k]})
         marker.update(scene_gt=scene_gt, gt_info=gt_info, objects=objects,
                       scene_camera={"cam_K": K.reshape(-1).tolist(), "depth_scale": ds_out})
-        t_w = time.perf_counter() - t_w0
         files.commit(mpath, marker)
+        t_w, c_w = time.perf_counter() - t_w0, time.process_time() - c_w0
     except BaseException:
         files.abort()
         raise
     marker["timing"] = {"render_s": t_render, "composite_s": t_comp, "gt_s": t_gt + t_w,
-                        "total_s": time.perf_counter() - t0}
+                        "total_s": time.perf_counter() - t0,
+                        "render_cpu_s": res.get("render_cpu_s", 0.0), "composite_cpu_s": c_comp,
+                        "gt_cpu_s": c_gt + c_w, "total_cpu_s": time.process_time() - c0}
     return marker

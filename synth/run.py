@@ -34,7 +34,7 @@ class SynthOptions:
     """All knobs of a run (everything that changes the output is recorded in the report)."""
 
     seed: int = 0
-    samples: int = 8
+    samples: int = 4
     denoise: bool = False
     max_bounces: int = 1
     lights: list | None = None
