@@ -46,7 +46,7 @@ class RefineOptions:
     coarse_iters: int = 2
     inner_iters: int = 4
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px scaled by image width / 640 (>= 1)
-    nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (2, 1) px scaled likewise
+    nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
     edge_norm_percentile: float = 100.0
@@ -386,20 +386,24 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                         cross[(i, j)] = cov_kf[6 * c:6 * c + 6, 6 * b:6 * b + 6]
 
     nonkey = [i for i in range(n) if i not in set(kf)]
+    seen_views = {i for (i, _) in obs}
     if nonkey and not opt.fix_cameras:
         for i in nonkey:   # SE(3) interpolation of the keyframe corrections
             a = max(k for k in kf if k < i)
             b = min(k for k in kf if k > i)
-            pa = T_c_init[i] @ inv_T(T_c_init[a]) @ T_c[a]
-            pb_ = T_c_init[i] @ inv_T(T_c_init[b]) @ T_c[b]
-            T_c[i] = interpolate_T(pa, pb_, (i - a) / (b - a))
+            if i in seen_views:   # carry the keyframe corrections over to the frame's own init camera
+                pa = T_c_init[i] @ inv_T(T_c_init[a]) @ T_c[a]
+                pb_ = T_c_init[i] @ inv_T(T_c_init[b]) @ T_c[b]
+                T_c[i] = interpolate_T(pa, pb_, (i - a) / (b - a))
+            else:                 # no init pose in this frame: interpolate the keyframe cameras
+                T_c[i] = interpolate_T(T_c[a], T_c[b], (i - a) / (b - a))
         free = np.zeros(n, bool)
         free[nonkey] = True
         pbn = BundleProblem(views, obj_ids, T_c, T_m, cam_free=free, obj_free=np.zeros(len(obj_ids), bool))
         pbn.obj_known = known
         nk_pairs = [(k, i) for (k, i) in _pairs(list(range(n)), opt.temporal_neighbours) if i in set(nonkey)]
         st2 = _Stage(pbn, models, opt, log, stats, nonkey, nk_pairs, "frames")
-        terms_nk = st2.run(opt.nonkey_sigmas_px or auto_sigmas((2.0, 1.0), views[0].width))
+        terms_nk = st2.run(opt.nonkey_sigmas_px or auto_sigmas((4.0, 2.0, 1.0), views[0].width))
         converged = converged and st2.converged
         visible |= {(views[i].im_id, obj_ids[j]) for (i, j) in st2.visible}
         T_c = pbn.T_c.copy()

@@ -69,7 +69,10 @@ def propagate(n_views: int, n_objs: int, obs: dict[tuple[int, int], np.ndarray],
     T_m = np.tile(np.eye(4), (n_objs, 1, 1))
     ck = np.zeros(n_views, bool)
     ok_ = np.zeros(n_objs, bool)
-    start = 0
+    # view 0 defines the world; if it has no observation, start from the first view that has one
+    # (view 0 then takes that camera, the nearest by index, as its initial guess)
+    with_obs = sorted({i for (i, _) in obs})
+    start = 0 if (not with_obs or with_obs[0] == 0) else with_obs[0]
     ck[start] = True
     changed = True
     while changed:

@@ -116,3 +116,24 @@ def test_object_without_any_init_is_reported(scene4):
                            images={f.im_id: imgs[f.im_id]})
     assert res.missing_objects == [2]
     assert (f.im_id, 2) not in res.poses and len(res.poses) == 4
+
+
+def test_keyframes_then_camera_only_refinement():
+    from ycbvss.procedural.render import render_frame_fast
+    from ycbvss.procedural.scene import make_scene
+
+    ps = make_scene(seed=1, n_frames=7, width=320, height=240, arc_deg=36)
+    imgs = {f.im_id: render_frame_fast(ps, f, noise_sigma=1.0)[0] for f in ps.frames}
+    gt = {(f.im_id, i.obj_id): i.T_m2c for f in ps.frames for i in f.instances}
+    pts = {o: np.asarray(m.mesh.vertices)[:: max(1, len(m.mesh.vertices) // 300)] for o, m in ps.models.items()}
+    init = deviate_scene(ps.T_m2w, {f.im_id: f.T_w2c for f in ps.frames}, np.random.default_rng(0))
+    # frames 1 and 4 have no init at all: their cameras come from SE(3) interpolation + refinement
+    init = {k: v for k, v in init.items() if k[0] not in (1, 4)}
+    res = refine_scene(ps.scene, ps.models, init, RefineOptions(keyframe_step=3, max_iters=4), images=imgs)
+    K = ps.frames[0].camera.K
+    nonkey = {1, 2, 4, 5}
+    e = _mean_err(res.poses, {k: v for k, v in gt.items() if k[0] in nonkey}, pts, K)
+    ek = _mean_err(res.poses, {k: v for k, v in gt.items() if k[0] not in nonkey}, pts, K)
+    assert ek["PRJ"] < 1.0 and e["PRJ"] < 1.0, (ek, e)
+    assert set(res.sigma["cameras"]) == {1, 2, 3, 4, 5, 6}
+    assert any(rec["stage"].startswith("frames") for rec in res.log)
