@@ -55,12 +55,12 @@ def parse_scene_list(s: str) -> list[int]:
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--seed", type=_int_min(0), default=0,
+    p.add_argument("--seed", type=_int_min(0), default=0, metavar="N",
                    help="random seed of the perturbation, the refiner's sampling and the rendering (default 0)")
     p.add_argument("--init-add-mm", type=_pos_float, default=22.1, metavar="MM",
                    help="target mean ADD of the initial (perturbed) poses in mm (default 22.1, the paper's)")
     p.add_argument("--no-ablation", dest="ablation", action="store_false",
-                   help="skip the three ablation runs (w/o f_edge, w/o f_point, w/o f_t): ~4x faster, no Table 5")
+                   help="skip the three ablation runs (w/o f_edge, w/o f_point, w/o f_t, run on the keyframes): about 2x faster, no Table 5")
     p.add_argument("--keyframe-step", type=_int_min(1), default=None, metavar="N",
                    help="refine every N-th frame jointly, then the others camera-only (default: about 8 "
                         "keyframes per scene; 1 = all frames jointly)")
@@ -78,7 +78,12 @@ def register(subparsers) -> None:
                     "CSV and LaTeX, poses as BOP19 CSV, overlays, error curves and one HTML report into --out. "
                     "With --real: refine the original annotations of real frames and report the "
                     "original-vs-refined difference instead.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        epilog="examples:\n"
+               "  ycbvss validate --dataset /data/ycbv --scenes 48 --max-frames 60 --out out/val48\n"
+               "  ycbvss validate --dataset /data/bop/ycbv --split test --scenes 48-50 --out out/val\n"
+               "  ycbvss validate --real --dataset /data/ycbv --scenes 48 --frame-step 10 --out out/real48\n"
+               "  ycbvss validate --gt-exact --dataset ycbvss_demo/dataset --out out/again",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     v.add_argument("--dataset", required=True, type=Path, metavar="ROOT",
                    help="a BOP dataset root (models/ + split/NNNNNN/) or an original YCB-Video root (data/, models/)")
     v.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder (created)")
@@ -86,7 +91,7 @@ def register(subparsers) -> None:
     v.add_argument("--scenes", type=parse_scene_list, default=None, metavar="LIST",
                    help="scene ids / YCB-Video video numbers to use, e.g. 48,50-52 (default: all)")
     v.add_argument("--init-prj-px", type=_pos_float, default=5.2, metavar="PX",
-                   help="target mean PRJ of the initial poses in pixels (the paper's 5.2)")
+                   help="target mean PRJ of the initial poses in pixels (default 5.2, the paper's)")
     v.add_argument("--real", action="store_true",
                    help="real frames without exact GT: refine the original annotations and write the "
                         "'original vs refined' difference table (no synthesis, no perturbation)")
@@ -95,9 +100,11 @@ def register(subparsers) -> None:
                         "skip the YCBV-SS synthesis")
     v.add_argument("--max-frames", type=_int_min(2), default=None, metavar="N",
                    help="use at most N frames per scene (after --frame-step; default: all)")
-    v.add_argument("--frame-step", type=_int_min(1), default=1, metavar="N", help="use every N-th frame")
-    v.add_argument("--workers", type=_int_min(1), default=None, help="Blender worker processes for the synthesis")
-    v.add_argument("--samples", type=_int_min(1), default=8, help="Cycles samples per pixel for the synthesis")
+    v.add_argument("--frame-step", type=_int_min(1), default=1, metavar="N", help="use every N-th frame (default 1)")
+    v.add_argument("--workers", type=_int_min(1), default=None, metavar="N",
+                   help="Blender worker processes for the synthesis (default: one per core)")
+    v.add_argument("--samples", type=_int_min(1), default=8, metavar="N",
+                   help="Cycles samples per pixel for the synthesis (default 8)")
     _common(v)
     v.set_defaults(func=_validate)
 
@@ -108,18 +115,27 @@ def register(subparsers) -> None:
                     "(Blender Cycles by default), then run the full validation loop on it (perturb -> bundle "
                     "refinement + ablations -> evaluation -> tables, overlays, curves, HTML report). Prints the "
                     "Table-4-style table and the path of the report.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    d.add_argument("--out", type=Path, default=Path("ycbvss_demo"), metavar="DIR", help="output folder")
+        epilog="examples:\n"
+               "  ycbvss demo                      # 24 frames 640x480, Blender, ablations (~2 min on 2 idle cores)\n"
+               "  ycbvss demo --quick              # 6 frames 320x240 (CI)\n"
+               "  ycbvss demo --renderer fast --no-ablation --out /tmp/d",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    d.add_argument("--out", type=Path, default=Path("ycbvss_demo"), metavar="DIR",
+                   help="output folder (default ./ycbvss_demo)")
     d.add_argument("--quick", action="store_true",
-                   help="tiny run for CI / a first look: 6 frames at 320x240 (unless --frames/--width given)")
+                   help="tiny run for CI / a first look: 6 frames at 320x240 (unless --frames/--width are given)")
     d.add_argument("--frames", type=_int_min(2), default=None, metavar="N",
                    help="number of frames (default 24; 6 with --quick)")
     d.add_argument("--width", type=_int_min(64), default=None, metavar="PX",
                    help="image width; height = 3/4 width (default 640; 320 with --quick)")
     d.add_argument("--renderer", choices=("blender", "fast"), default="blender",
-                   help="blender: Cycles path tracing of the objects over the table; fast: OpenGL Lambertian")
-    d.add_argument("--samples", type=_int_min(1), default=8, help="Cycles samples per pixel (denoised)")
-    d.add_argument("--workers", type=_int_min(1), default=1, help="Blender worker processes")
+                   help="blender (default): Cycles path tracing of the objects, composited over the table; "
+                        "fast: OpenGL Lambertian shading (seconds, no Blender)")
+    d.add_argument("--samples", type=_int_min(1), default=8, metavar="N", help="Cycles samples per pixel (default 8)")
+    d.add_argument("--denoise", action="store_true",
+                   help="OpenImageDenoise the Blender renders (cleaner, ~2x slower on CPU)")
+    d.add_argument("--workers", type=_int_min(1), default=1, metavar="N",
+                   help="Blender worker processes (default 1; each uses cores/N threads)")
     d.add_argument("--init-prj-px", type=_pos_float, default=None, metavar="PX",
                    help="target mean PRJ of the initial poses (default: 5.2 px scaled to the image width)")
     _common(d)
@@ -169,7 +185,7 @@ def _demo(args) -> int:
     from .demo import DemoOptions, run_demo
     from .validate import Stages
     opts = DemoOptions(out=args.out, quick=args.quick, frames=args.frames, width=args.width, seed=args.seed,
-                       renderer=args.renderer, samples=args.samples, workers=args.workers, ablation=args.ablation,
+                       renderer=args.renderer, samples=args.samples, denoise=args.denoise, workers=args.workers, ablation=args.ablation,
                        keyframe_step=args.keyframe_step, init_add_mm=args.init_add_mm, init_prj_px=args.init_prj_px,
                        overlays=args.overlays)
     stages = Stages()

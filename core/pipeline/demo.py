@@ -22,6 +22,7 @@ class DemoOptions:
     seed: int = 0
     renderer: str = "blender"
     samples: int = 8
+    denoise: bool = False
     workers: int = 1
     ablation: bool = True
     keyframe_step: int | None = None
@@ -67,7 +68,7 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
             from ..procedural.blender import render_blender
             bar = progress(desc="render (Blender Cycles)", total=len(scene.frames), unit="frame")
             it = render_blender(scene, root / "models", Path(o.out) / "work" / "blender", samples=o.samples,
-                                denoise=True, workers=o.workers, on_frame=lambda: bar.update(1))
+                                denoise=o.denoise, workers=o.workers, on_frame=lambda: bar.update(1))
             try:
                 for im_id, rgb, depth in it:
                     writer.write_frame(frames[im_id], rgb=rgb, depth_mm=depth)
