@@ -62,8 +62,17 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
     with stages.stage("build procedural scene"):
         scene = make_scene(seed=o.seed, n_frames=o.frames, width=o.width, height=o.height)
     with stages.stage(f"render {o.frames} frames ({o.renderer}, {o.width}x{o.height})"):
+        from ..gt_info import compute_gt_info
+        from ..render import Renderer
         writer = BopSceneWriter(root / "test", scene.scene_id)
         frames = {f.im_id: f for f in scene.frames}
+        gl = Renderer()
+
+        def write(im_id, rgb, depth):
+            f = frames[im_id]
+            masks, masks_visib, info = compute_gt_info(gl, f, scene.models, depth_mm_real=depth)
+            writer.write_frame(f, rgb=rgb, depth_mm=depth, masks=masks, masks_visib=masks_visib, gt_info=info)
+
         if o.renderer == "blender":
             from ..procedural.blender import render_blender
             bar = progress(desc="render (Blender Cycles)", total=len(scene.frames), unit="frame")
@@ -71,14 +80,14 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
                                 denoise=o.denoise, workers=o.workers, on_frame=lambda: bar.update(1))
             try:
                 for im_id, rgb, depth in it:
-                    writer.write_frame(frames[im_id], rgb=rgb, depth_mm=depth)
+                    write(im_id, rgb, depth)
             finally:
                 bar.close()
         else:
             write_models(scene, root / "models")
             for im_id, rgb, depth in progress(render_fast(scene), desc="render (fast)", total=len(scene.frames),
                                               unit="frame"):
-                writer.write_frame(frames[im_id], rgb=rgb, depth_mm=depth)
+                write(im_id, rgb, depth)
         writer.close()
     return root, scene
 

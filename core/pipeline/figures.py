@@ -10,7 +10,8 @@ import numpy as np
 from ..io.images import write_png
 
 # RGB colours of the pose sets in overlays and curves
-COLORS = {"gt": (255, 255, 255), "original": (255, 200, 0), "initial": (255, 60, 60), "refined": (40, 230, 60),
+COLORS = {"gt": (255, 255, 255), "original": (255, 170, 0), "initial": (255, 60, 60), "refined": (40, 200, 60),
+          "using all": (40, 200, 60),
           "w/o f_edge": (80, 160, 255), "w/o f_point": (200, 90, 255), "w/o f_t": (255, 150, 40)}
 
 
