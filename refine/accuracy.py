@@ -24,7 +24,8 @@ def pose_errors(T_est: np.ndarray, T_gt: np.ndarray, pts_mm: np.ndarray, K: np.n
 def deviate_scene(T_m2w: dict, T_w2c: dict, rng: np.random.Generator, t_sigma_mm=(3.0, 3.0, 20.0),
                   r_sigma_deg: float = 2.0, view_t_sigma_mm: float = 1.0, view_r_sigma_deg: float = 0.3) -> dict:
     """Initial poses {(im_id, obj_id): 4x4} = GT with a systematic per-object deviation (expressed in
-    the first camera's axes, so tz is the depth error as in YCB-V) plus a small per-view jitter.
+    the first camera's axes, so tz is the depth error as in YCB-V) plus a per-view deviation in each
+    view's camera axes (``view_t_sigma_mm`` scalar or (3,) per axis, ``view_r_sigma_deg``).
 
     The object is rotated about its own origin: T' = D T with D = [exp(w), t - exp(w) t + dt]."""
     im_ids = sorted(T_w2c)
@@ -41,7 +42,8 @@ def deviate_scene(T_m2w: dict, T_w2c: dict, rng: np.random.Generator, t_sigma_mm
         Tm_d = np.linalg.inv(T0) @ P0d
         for im in im_ids:
             P = T_w2c[im] @ Tm_d
-            J = exp_se3(np.r_[rng.normal(scale=view_t_sigma_mm, size=3), rng.normal(scale=np.radians(view_r_sigma_deg), size=3)])
+            J = exp_se3(np.r_[rng.normal(size=3) * np.broadcast_to(np.asarray(view_t_sigma_mm, float), (3,)),
+                              rng.normal(scale=np.radians(view_r_sigma_deg), size=3)])
             Pj = P.copy()
             Pj[:3, :3] = J[:3, :3] @ P[:3, :3]
             Pj[:3, 3] = P[:3, 3] + J[:3, 3]
