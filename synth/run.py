@@ -118,6 +118,7 @@ def compute_coverage(ds, layout: str, scene_loader, overrides: dict, opts: Synth
     scales = (1.0,) + tuple(opts.scale_grid)
     acc: dict = {}
     centres: dict = {}
+    model_warnings: list = []
     for sid in ds.scene_ids:
         scene, _ = scene_loader(sid)
         frames = _select_frames(scene, opts)
@@ -125,9 +126,13 @@ def compute_coverage(ds, layout: str, scene_loader, overrides: dict, opts: Synth
             if oid not in ds.models:
                 raise YcbvssError(f"object {oid}: no model", ds.root / "models")
             centres[oid] = bbox_center_mm(ds.models[oid].vertices_mm)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                r.add_mesh(f"obj_{oid:06d}", centred_mesh(ds.models[oid], centres[oid]))
+            with warnings.catch_warnings(record=True) as caught:   # e.g. texture missing -> grey model
+                warnings.simplefilter("always")
+                mesh = centred_mesh(ds.models[oid], centres[oid])
+            for w in caught:
+                model_warnings.append(str(w.message))
+                print(f"ycbvss synth: warning: {w.message}", file=sys.stderr)
+            r.add_mesh(f"obj_{oid:06d}", mesh)
             acc[oid] = {"total": 0, "covered": np.zeros(len(scales), np.int64)}
         for fr in progress(frames[:: max(1, int(opts.coverage_stride))], desc=f"coverage scene {sid}", unit="frame"):
             task = frame_task(fr, layout, centres, overrides)
@@ -158,7 +163,8 @@ def compute_coverage(ds, layout: str, scene_loader, overrides: dict, opts: Synth
         tot = max(a["total"], 1)
         out[oid] = {"visible_px": a["total"], "coverage_by_scale": {f"{s:g}": round(float(c) / tot, 6)
                                                                   for s, c in zip(scales, a["covered"])},
-                    "covered": a["covered"].tolist()}
+                    "covered": a["covered"].tolist(), "warnings": [w for w in model_warnings if f"{oid:06d}" in w
+                                                                or ds.models[oid].name in w]}
     return out, centres
 
 
@@ -316,7 +322,8 @@ def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int
             "scale": s, "centre_mm": np.round(centres[oid], 6).tolist(), "visible_px": c["visible_px"],
             "coverage_before": c["coverage_by_scale"]["1"],
             "coverage_after": None if cov_after is None else round(float(cov_after), 6),
-            "coverage_by_scale": c["coverage_by_scale"], "flagged": bool(flagged)}
+            "coverage_by_scale": c["coverage_by_scale"], "flagged": bool(flagged),
+            "model_warnings": c.get("warnings", [])}
     models_dir = out / "models"
     mkey = _fingerprint([{str(k): v for k, v in scales.items()}, {str(k): c.tolist() for k, c in centres.items()},
                          [str(ds.models[o].path) for o in obj_ids]])
