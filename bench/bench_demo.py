@@ -40,7 +40,13 @@ def main() -> int:
           f"{s['frames']} frames, {s['pairs']} pairs")
     for k, v in st.times.items():
         print(f"  {k:<45s} {v:7.1f} s")
-    print(f"  {'total wall clock':<45s} {total:7.1f} s   (main-process CPU {time.process_time() - cpu0:.1f} s)")
+    import resource
+    ch = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu_main, cpu_children = time.process_time() - cpu0, ch.ru_utime + ch.ru_stime
+    print(f"  {'total wall clock':<45s} {total:7.1f} s")
+    print(f"  CPU: main process {cpu_main:.1f} s, Blender workers {cpu_children:.1f} s -> on an idle machine "
+          f"the wall clock is about max(main, (main + workers) / cores) = "
+          f"{max(cpu_main, (cpu_main + cpu_children) / (os.cpu_count() or 1)):.0f} s or more")
     i, r = s["initial"], s["refined"]
     print(f"initial: ADD {i['achieved_add_mm']:.2f} mm, PRJ {i['achieved_prj_px']:.2f} px; "
           f"refined: ADD {r['add_mm']:.3f} mm, PRJ {r['prj_px']:.3f} px, tz {r['tz_mm']:.3f} mm, R {r['r_deg']:.3f} deg")
