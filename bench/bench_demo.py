@@ -44,9 +44,9 @@ def main() -> int:
     ch = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu_main, cpu_children = time.process_time() - cpu0, ch.ru_utime + ch.ru_stime
     print(f"  {'total wall clock':<45s} {total:7.1f} s")
-    print(f"  CPU: main process {cpu_main:.1f} s, Blender workers {cpu_children:.1f} s -> on an idle machine "
-          f"the wall clock is about max(main, (main + workers) / cores) = "
-          f"{max(cpu_main, (cpu_main + cpu_children) / (os.cpu_count() or 1)):.0f} s or more")
+    print(f"  CPU: main process {cpu_main:.1f} s (refinement is mostly single-threaded), Blender workers "
+          f"{cpu_children:.1f} s (all cores) -> idle-machine estimate main + workers / cores = "
+          f"{cpu_main + cpu_children / (os.cpu_count() or 1):.0f} s")
     i, r = s["initial"], s["refined"]
     print(f"initial: ADD {i['achieved_add_mm']:.2f} mm, PRJ {i['achieved_prj_px']:.2f} px; "
           f"refined: ADD {r['add_mm']:.3f} mm, PRJ {r['prj_px']:.3f} px, tz {r['tz_mm']:.3f} mm, R {r['r_deg']:.3f} deg")
