@@ -177,12 +177,25 @@ class BlenderSession:
             self._mesh_specs[key] = ident
 
     def _build_mesh(self, key: str, path: str, unit_scale: float) -> None:
-        from ycbvss.io.mesh import load_mesh_mm, mesh_texture_rgb, mesh_uv
+        from ycbvss.io.mesh import _texture_reference, load_mesh_mm, mesh_texture_rgb, mesh_uv
         bpy = self.bpy
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            tm = load_mesh_mm(path, unit_scale)
-        self.warnings.extend(str(w.message) for w in caught)
+        tex_file = _texture_reference(Path(path))
+        tex = None
+        if tex_file is not None and tex_file.is_file() and tex_file.suffix.lower() in (".png", ".jpg", ".jpeg"):
+            # geometry + UVs only; Blender reads the texture file itself (no decode/re-encode here)
+            import trimesh
+            tm = trimesh.load(str(path), process=False, force="mesh", skip_materials=True)
+            tm.vertices = np.asarray(tm.vertices, np.float64) * unit_scale
+            uv = mesh_uv(tm)
+            if uv is not None:
+                tex = str(tex_file)
+        else:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                tm = load_mesh_mm(path, unit_scale)
+            self.warnings.extend(str(w.message) for w in caught)
+            uv = mesh_uv(tm)
+            tex = mesh_texture_rgb(tm) if uv is not None else None
         v_m = np.asarray(tm.vertices, np.float64) * 1e-3
         f = np.asarray(tm.faces, np.int64)
         self._corners_mm[key] = _bbox_corners(np.asarray(tm.vertices, np.float64))
@@ -193,8 +206,6 @@ class BlenderSession:
         me.loops.foreach_set("vertex_index", f.astype(np.int32).ravel())
         me.polygons.add(len(f))
         me.polygons.foreach_set("loop_start", np.arange(0, f.size, 3, dtype=np.int32))
-        uv = mesh_uv(tm)
-        tex = mesh_texture_rgb(tm) if uv is not None else None
         if uv is not None and tex is not None:
             layer = me.uv_layers.new(name="UVMap")
             layer.data.foreach_set("uv", uv[f.ravel()].astype(np.float32).ravel())
@@ -228,10 +239,13 @@ class BlenderSession:
         bsdf.inputs["Roughness"].default_value = 0.55
         bsdf.inputs["Specular IOR Level"].default_value = 0.35
         if tex_rgb is not None:
-            import cv2
-            tex_path = self._tmpdir / f"tex_{key}.png"
-            cv2.imwrite(str(tex_path), np.ascontiguousarray(tex_rgb[..., ::-1]), [cv2.IMWRITE_PNG_COMPRESSION, 1])
-            img = bpy.data.images.load(str(tex_path))
+            if isinstance(tex_rgb, str):           # a texture file Blender can read directly
+                tex_path = Path(tex_rgb)
+            else:
+                import cv2
+                tex_path = self._tmpdir / f"tex_{key}.png"
+                cv2.imwrite(str(tex_path), np.ascontiguousarray(tex_rgb[..., ::-1]), [cv2.IMWRITE_PNG_COMPRESSION, 1])
+            img = bpy.data.images.load(str(tex_path), check_existing=False)
             img.colorspace_settings.name = "sRGB"
             node = nt.nodes.new("ShaderNodeTexImage")
             node.image = img

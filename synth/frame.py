@@ -43,7 +43,7 @@ def validate_pose(T: np.ndarray, corners_mm: np.ndarray) -> str | None:
 
 def _fast_renderer(worker, meshes: dict):
     """The per-process fast renderer with the (dilated) output models uploaded once."""
-    from ..io.mesh import load_mesh_mm
+    from ..io.mesh import load_geometry_mm
     from ..render import Renderer
     r = worker.cache.get("fast_renderer")
     if r is None:
@@ -53,9 +53,7 @@ def _fast_renderer(worker, meshes: dict):
     loaded = worker.cache["fast_meshes"]
     for key, spec in meshes.items():
         if loaded.get(key) != spec["path"]:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                m = load_mesh_mm(spec["path"], float(spec.get("unit_scale", 1.0)))
+            m = load_geometry_mm(spec["path"], float(spec.get("unit_scale", 1.0)))   # masks need no texture
             r.add_mesh(key, m)
             v = np.asarray(m.vertices)
             lo, hi = v.min(0), v.max(0)
