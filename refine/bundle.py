@@ -34,7 +34,9 @@ class RefineOptions:
     there the edge term acts alone).
     ``keyframe_step`` N > 1: optimise every N-th frame jointly, then place and refine the others
     (camera only). ``edge_sigmas_px``: coarse-to-fine blur of the edge field. ``max_iters``: outer
-    iterations (re-render + re-sample) per level; ``inner_iters``: damped Newton steps per outer one.
+    iterations (re-render + re-sample) at the finest level, ``coarse_iters`` at each coarser one;
+    ``inner_iters``: damped Newton steps per outer iteration. ``fix_cameras``: use the frames'
+    T_w2c as known cameras and refine the objects only.
     """
 
     use_edge: bool = True
@@ -43,8 +45,8 @@ class RefineOptions:
     alpha: float = 5.0
     beta: float = 1.0
     keyframe_step: int = 0
-    max_iters: int = 6
-    coarse_iters: int = 2
+    max_iters: int = 5
+    coarse_iters: int = 3
     inner_iters: int = 4
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px scaled by image width / 640 (>= 1)
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
