@@ -13,6 +13,17 @@ def srgb_to_linear(rgb01: np.ndarray) -> np.ndarray:
     return np.asarray(colour.cctf_decoding(np.clip(rgb01, 0.0, 1.0), function="sRGB"), np.float32)
 
 
+_U8_LUT = None
+
+
+def srgb_u8_to_linear(rgb_u8: np.ndarray) -> np.ndarray:
+    """uint8 sRGB -> linear float32 through a 256-entry table (same values as :func:`srgb_to_linear`)."""
+    global _U8_LUT
+    if _U8_LUT is None:
+        _U8_LUT = srgb_to_linear(np.arange(256, dtype=np.float32) / 255.0).astype(np.float32)
+    return _U8_LUT[np.asarray(rgb_u8, np.uint8)]
+
+
 def linear_to_srgb(lin: np.ndarray) -> np.ndarray:
     """Linear RGB -> sRGB-encoded values in [0, 1] (clipped)."""
     import colour

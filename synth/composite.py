@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .colour_fit import (apply_colour_transform, delta_e2000, fit_colour_adaptive, fit_colour_transfer_mk,
-                         fit_colour_transform, linear_to_srgb, srgb_to_linear)
+                         fit_colour_transform, linear_to_srgb, srgb_u8_to_linear)
 from .noise import NoiseParams, add_sensor_noise, blur_premultiplied
 
 
@@ -32,7 +32,7 @@ def _fit_pixels(index: np.ndarray, alpha: np.ndarray, pi: int, orig_visible: np.
 
 def composite_frame(orig_rgb: np.ndarray, rgba: np.ndarray, index: np.ndarray,
                     objects: list[CompositeObject], noise: NoiseParams, rng: np.random.Generator,
-                    fit: bool = True, erode_px: int = 2, max_fit_px: int = 4000,
+                    fit: bool = True, erode_px: int = 2, max_fit_px: int = 2500,
                     fit_method: str = "adaptive") -> tuple[np.ndarray, list[dict]]:
     """Composite the render over the real RGB image.
 
@@ -48,7 +48,7 @@ def composite_frame(orig_rgb: np.ndarray, rgba: np.ndarray, index: np.ndarray,
     alpha = np.clip(rgba[..., 3], 0.0, 1.0)
     prem = rgba[..., :3]
     orig01 = orig_rgb.astype(np.float32) / 255.0
-    orig_lin = srgb_to_linear(orig01)
+    orig_lin = srgb_u8_to_linear(orig_rgb)
     # pixels with coverage but no index sample (thin anti-aliased rims): take the neighbour's index
     idx = index.astype(np.int32)
     rim = (alpha > 0) & (idx == 0)
