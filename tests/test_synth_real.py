@@ -225,3 +225,18 @@ def test_ycbvss_eval_scores_exact_gt_as_perfect(synth_out, tmp_path):
     assert rows, "eval wrote no per-instance table"
     key = "tz_mm" if "tz_mm" in rows[0] else "tz"
     assert len(rows) >= 50 and max(abs(float(r[key])) for r in rows) < 1e-3
+
+
+def test_preview_writes_triptychs_and_contact_sheet(synth_out, tmp_path):
+    import cv2
+    from ycbvss.cli import main
+    out, _ = synth_out
+    assert main(["synth", "preview", "--dataset", str(out), "--scenes", "1", "--out", str(tmp_path / "pv")]) == 0
+    pngs = sorted((tmp_path / "pv" / "000001").glob("*.png"))
+    assert len(pngs) == 5
+    im = cv2.imread(str(pngs[0]))
+    assert im.shape == (480, 3 * 640, 3)
+    # the middle panel is the YCBV-SS image itself
+    syn = cv2.imread(str(out / "test" / "000001" / "rgb" / pngs[0].name))
+    assert np.array_equal(im[:, 640:1280], syn)
+    assert (tmp_path / "pv" / "000001_contact.png").is_file()
