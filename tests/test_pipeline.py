@@ -53,7 +53,7 @@ def demo_run(tmp_path_factory):
     from ycbvss.pipeline.validate import Stages
     out = tmp_path_factory.mktemp("demo_fast")
     os.environ["YCBVSS_NO_PROGRESS"] = "1"
-    summary = run_demo(DemoOptions(out=out, frames=5, width=256, renderer="fast", ablation=False, overlays=2),
+    summary = run_demo(DemoOptions(out=out, frames=6, width=320, renderer="fast", ablation=False, overlays=2),
                        Stages(quiet=True))
     return out, summary
 
@@ -63,7 +63,7 @@ def test_refined_errors_far_below_initial(demo_run):
     init, ref = s["initial"], s["refined"]
     # calibration: achieved initial errors within 1 % of the (resolution-scaled) targets
     assert abs(init["achieved_add_mm"] / 22.1 - 1) < 0.01
-    assert abs(init["achieved_prj_px"] / (5.2 * 256 / 640) - 1) < 0.01
+    assert abs(init["achieved_prj_px"] / (5.2 * 320 / 640) - 1) < 0.01
     # stated bounds: refined mean PRJ < 0.3 x initial, refined mean ADD < 0.25 x initial
     assert ref["prj_px"] < 0.3 * init["prj_px"], (ref, init)
     assert ref["add_mm"] < 0.25 * init["add_mm"], (ref, init)
@@ -88,7 +88,7 @@ def test_every_table_exists_and_parses(demo_run):
     # the poses files are valid BOP19 CSVs with one row per (view, object)
     from ycbvss.io.results import read_bop19_csv
     ests = read_bop19_csv(out / "poses" / "refined_poses.csv")
-    assert len(ests) == 5 * 5
+    assert len(ests) == 6 * 5
 
 
 class _Refs(HTMLParser):
