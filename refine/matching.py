@@ -25,7 +25,8 @@ class FlowOptions:
     max_corners: int = 1000
     quality: float = 0.01
     min_distance_px: int = 3
-    min_eig: float = 1e-3         # absolute Shi-Tomasi threshold (cv2.cornerMinEigenVal, block 3) on the raw image
+    min_eig: float = 5e-4         # absolute Shi-Tomasi threshold (cv2.cornerMinEigenVal, block 3) on the image blurred
+                                  # with sigma 1 px: image noise on textureless surfaces stays below it
 
 
 def _gray_u8(img: np.ndarray) -> np.ndarray:
@@ -53,7 +54,7 @@ def corners(img: np.ndarray, mask: np.ndarray | None, opt: FlowOptions, max_n: i
         return np.zeros((0, 2))
     pts = pts.reshape(-1, 2).astype(np.float64)
     if opt.min_eig > 0:   # absolute threshold: a uniform (textureless) region yields no corners at all
-        me = cv2.cornerMinEigenVal(g, 3, 3)
+        me = cv2.cornerMinEigenVal(cv2.GaussianBlur(g, (0, 0), 1.0), 3, 3)
         pts = pts[me[pts[:, 1].astype(int), pts[:, 0].astype(int)] >= opt.min_eig]
     return pts
 
