@@ -261,7 +261,7 @@ def run_validate(opts: ValidateOptions, stages: Stages | None = None) -> dict:
                     originals[(sc.scene_id, f.im_id)] = f.rgb_path
         root, split = _synthesise(opts, stages, src_split)
     with stages.stage("load dataset"):
-        ds, _, split = open_dataset(root, split, opts.scenes if opts.gt_exact else None)
+        ds, _, split = open_dataset(root, split, opts.scenes)
         scenes = [select_frames(sc, opts.max_frames, opts.frame_step) for sc in ds.iter_scenes()]
         scenes = [sc for sc in scenes if len(sc.frames) >= 2]
         if not scenes:
