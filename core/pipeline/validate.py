@@ -61,6 +61,7 @@ class ValidateOptions:
     samples: int = 8
     overlays: int = 3
     max_iters: int | None = None
+    parallel: bool = True             # ablation runs in a second process when there are >= 2 cores
     title: str = "ycbvss validation"
     originals: dict | None = None     # {(scene_id, im_id): path of the original (real) image} for overlays
     extra_info: dict = field(default_factory=dict)
@@ -159,42 +160,84 @@ def keyframe_scene(sc: Scene, step: int) -> Scene:
     return Scene(sc.scene_id, sc.frames[::max(1, step)], sc.root)
 
 
+def _refine_job(vname: str, sc: Scene, models: dict, init: dict, kw: dict, opts: "ValidateOptions") -> tuple:
+    """One refinement run (a variant on a scene); returns (variant, scene_id, poses, stats)."""
+    from ..refine.bundle import RefineOptions, refine_scene
+
+    step = opts.keyframe_step or auto_keyframe_step(len(sc.frames))
+    run_sc = sc if vname == "using all" else keyframe_scene(sc, step)
+    run_step = step if vname == "using all" else 1
+    kw = dict(kw)
+    if opts.max_iters:
+        kw["max_iters"] = int(opts.max_iters)
+    ro = RefineOptions(keyframe_step=run_step if run_step > 1 else 0, seed=opts.seed, compute_uncertainty=False, **kw)
+    ims = {f.im_id for f in run_sc.frames}
+    sc_init = {(k[1], k[2]): T for k, T in init.items() if k[0] == sc.scene_id and k[1] in ims}
+    t0 = time.perf_counter()
+    res = refine_scene(run_sc, models, sc_init, ro)
+    poses = {(sc.scene_id, im, oid): np.asarray(T, np.float64) for (im, oid), T in res.poses.items()}
+    return vname, sc.scene_id, poses, {"time_s": time.perf_counter() - t0, "converged": bool(res.converged),
+                                       "keyframe_step": step, "n_frames": len(run_sc.frames)}
+
+
+def _refine_jobs_child(jobs: list, models: dict, init: dict, opts: "ValidateOptions") -> list:
+    """Worker-process entry: run several refinement jobs sequentially (no progress bars)."""
+    import os
+    os.environ["YCBVSS_NO_PROGRESS"] = "1"
+    return [_refine_job(v, sc, models, init, kw, opts) for v, sc, kw in jobs]
+
+
+def _portable_models(models: dict) -> dict | None:
+    """Copies of the models without loaded meshes (cheap to send to a process); None if a model
+    only exists in memory."""
+    import dataclasses
+    if any(m.path is None for m in models.values()):
+        return None
+    return {o: dataclasses.replace(m, _mesh=None) for o, m in models.items()}
+
+
 def refine_all(scenes: list[Scene], models: dict, init: dict, variants: dict, opts: ValidateOptions) -> dict:
     """Run the refiner for every variant on every scene. Returns {variant: {(scene, im, obj): 4x4}}
     plus ``"_stats"``: {variant: {scene_id: stats}}.
 
     "using all" runs on all frames (keyframes jointly, the other frames camera-only); the ablation
     variants run on the keyframes only (the joint stage, which is where the terms matter) -- their
-    poses therefore exist for the keyframes only."""
+    poses therefore exist for the keyframes only. With several cores the ablation runs go to a
+    second process while this one runs "using all" (the refiner is mostly single-threaded)."""
+    import os
+
     from ..progress import progress
-    from ..refine.bundle import RefineOptions, refine_scene
 
     out: dict = {v: {} for v in variants}
     stats: dict = {v: {} for v in variants}
-    jobs = [(v, sc) for v in variants for sc in scenes]
-    bar = progress(total=len(jobs), desc="refine", unit="run")
+    main_jobs = [("using all", sc, variants["using all"]) for sc in scenes if "using all" in variants]
+    side_jobs = [(v, sc, variants[v]) for v in variants if v != "using all" for sc in scenes]
+    bar = progress(total=len(main_jobs) + len(side_jobs), desc="refine", unit="run")
+    fut = pool = None
+    portable = _portable_models(models) if side_jobs and (os.cpu_count() or 1) >= 2 and opts.parallel else None
+    if portable is not None:
+        import concurrent.futures as cf
+        import multiprocessing as mp
+        pool = cf.ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"))
+        fut = pool.submit(_refine_jobs_child, side_jobs, portable, init, opts)
+        bar.set_postfix_str(f"{len(side_jobs)} ablation run(s) in a second process")
     try:
-        for vname, sc in jobs:
-            bar.set_postfix_str(f"{vname}, scene {sc.scene_id}")
-            step = opts.keyframe_step or auto_keyframe_step(len(sc.frames))
-            run_sc = sc if vname == "using all" else keyframe_scene(sc, step)
-            run_step = step if vname == "using all" else 1
-            kw = dict(variants[vname])
-            if opts.max_iters:
-                kw["max_iters"] = int(opts.max_iters)
-            ro = RefineOptions(keyframe_step=run_step if run_step > 1 else 0, seed=opts.seed,
-                               compute_uncertainty=False, **kw)
-            ims = {f.im_id for f in run_sc.frames}
-            sc_init = {(k[1], k[2]): T for k, T in init.items() if k[0] == sc.scene_id and k[1] in ims}
-            t0 = time.perf_counter()
-            res = refine_scene(run_sc, models, sc_init, ro)
-            for (im, oid), T in res.poses.items():
-                out[vname][(sc.scene_id, im, oid)] = np.asarray(T, np.float64)
-            stats[vname][sc.scene_id] = {"time_s": time.perf_counter() - t0, "converged": bool(res.converged),
-                                         "keyframe_step": step, "n_frames": len(run_sc.frames)}
+        for vname, sc, kw in (main_jobs if fut is not None else main_jobs + side_jobs):
+            bar.set_postfix_str(f"{vname}, scene {sc.scene_id}" + (" (+ ablations in parallel)" if fut else ""))
+            v, sid, poses, st = _refine_job(vname, sc, models, init, kw, opts)
+            out[v].update(poses)
+            stats[v][sid] = st
             bar.update(1)
+        if fut is not None:
+            bar.set_postfix_str("waiting for the ablation runs")
+            for v, sid, poses, st in fut.result():
+                out[v].update(poses)
+                stats[v][sid] = st
+                bar.update(1)
     finally:
         bar.close()
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
     out["_stats"] = stats
     return out
 
