@@ -11,6 +11,7 @@ from ..errors import YcbvssError
 from .blender import BlenderWorker, default_workers, run_parallel
 
 FRAME_FUNC = "ycbvss.synth.frame:process_frame"
+COVERAGE_FUNC = "ycbvss.synth.coverage:coverage_frame"
 
 
 class LocalExecutor:
@@ -26,12 +27,13 @@ class LocalExecutor:
         if not self.pool:
             self.pool = [BlenderWorker() for _ in range(self.n)]
 
-    def map(self, config: dict, tasks: list[dict], on_result: Callable[[dict], None]) -> list[dict]:
+    def map(self, config: dict, tasks: list[dict], on_result: Callable[[dict], None],
+            func: str = FRAME_FUNC) -> list[dict]:
         if not tasks:
             return []
         self._ensure()
         cfg = {**config, "threads": self.threads}
-        return run_parallel(self.pool, tasks, lambda w, t: w.call(FRAME_FUNC, config=cfg, task=t), on_result)
+        return run_parallel(self.pool, tasks, lambda w, t: w.call(func, config=cfg, task=t), on_result)
 
     def close(self):
         for w in self.pool:
@@ -50,9 +52,9 @@ class _RayFrameActor:
         self.worker = BlenderWorker()
         self.threads = threads
 
-    def run_chunk(self, config: dict, tasks: list[dict]) -> list[dict]:
+    def run_chunk(self, config: dict, tasks: list[dict], func: str = FRAME_FUNC) -> list[dict]:
         cfg = {**config, "threads": self.threads}
-        return [self.worker.call(FRAME_FUNC, config=cfg, task=t) for t in tasks]
+        return [self.worker.call(func, config=cfg, task=t) for t in tasks]
 
     def close(self):
         self.worker.close()
@@ -81,12 +83,15 @@ class RayExecutor:
         Actor = ray.remote(num_cpus=cpus_per_worker)(_RayFrameActor)
         self.actors = [Actor.remote(cpus_per_worker) for _ in range(self.n)]
 
-    def map(self, config: dict, tasks: list[dict], on_result: Callable[[dict], None]) -> list[dict]:
+    def map(self, config: dict, tasks: list[dict], on_result: Callable[[dict], None],
+            func: str = FRAME_FUNC) -> list[dict]:
         from ray.util import ActorPool
+        if not tasks:
+            return []
         chunks = _chunks(tasks, self.chunk)
         pool = ActorPool(self.actors)
         out = []
-        for res in pool.map_unordered(lambda a, c: a.run_chunk.remote(config, c), chunks):
+        for res in pool.map_unordered(lambda a, c: a.run_chunk.remote(config, c, func), chunks):
             for r in res:
                 on_result(r)
                 out.append(r)

@@ -48,9 +48,8 @@ def _fast_renderer(worker, meshes: dict):
     r = worker.cache.get("fast_renderer")
     if r is None:
         r = worker.cache["fast_renderer"] = Renderer()
-        worker.cache["fast_meshes"] = {}
-        worker.cache["corners"] = {}
-    loaded = worker.cache["fast_meshes"]
+    worker.cache.setdefault("corners", {})
+    loaded = worker.cache.setdefault("fast_meshes", {})
     for key, spec in meshes.items():
         if loaded.get(key) != spec["path"]:
             m = load_geometry_mm(spec["path"], float(spec.get("unit_scale", 1.0)))   # masks need no texture

@@ -107,57 +107,47 @@ def frame_task(frame, layout: str, centres: dict, overrides: dict) -> dict:
 
 
 # ------------------------------------------------------------------------------ coverage
-def compute_coverage(ds, layout: str, scene_loader, overrides: dict, opts: SynthOptions) -> tuple[dict, dict]:
-    """One streaming pass over the selected frames: the objects present, their model centres, and per object the
-    visible pixel total and covered counts at scale 1.0 and each grid scale. Returns (coverage, centres)."""
-    from ..io.images import read_label, read_mask
+def compute_coverage(ds, layout: str, scene_loader, overrides: dict, opts: SynthOptions, ex) -> tuple[dict, dict]:
+    """One streaming pass over the selected frames (in the executor's workers): the objects present, their model
+    centres, and per object the visible pixel total and covered counts at scale 1.0 and each grid scale.
+    Returns (coverage, centres)."""
     from ..progress import progress
-    from ..render import Renderer
+    from .executors import COVERAGE_FUNC
     from .models import centred_mesh
-    r = Renderer()
     scales = (1.0,) + tuple(opts.scale_grid)
     acc: dict = {}
     centres: dict = {}
     model_warnings: list = []
+    cfg = {"scales": list(scales), "coverage_meshes": {}}
     for sid in ds.scene_ids:
         scene, _ = scene_loader(sid)
         frames = _select_frames(scene, opts)
         for oid in sorted({i.obj_id for f in frames for i in f.instances} - set(centres)):
             if oid not in ds.models:
                 raise YcbvssError(f"object {oid}: no model", ds.root / "models")
-            centres[oid] = bbox_center_mm(ds.models[oid].vertices_mm)
+            m = ds.models[oid]
+            centres[oid] = bbox_center_mm(m.vertices_mm)
             with warnings.catch_warnings(record=True) as caught:   # e.g. texture missing -> grey model
                 warnings.simplefilter("always")
-                mesh = centred_mesh(ds.models[oid], centres[oid])
+                centred_mesh(m, centres[oid])
             for w in caught:
                 model_warnings.append(str(w.message))
                 print(f"ycbvss synth: warning: {w.message}", file=sys.stderr)
-            r.add_mesh(f"obj_{oid:06d}", mesh)
+            cfg["coverage_meshes"][f"cov_obj_{oid:06d}"] = {"path": str(m.path), "unit_scale": float(m.unit_scale),
+                                                            "centre_mm": centres[oid].tolist()}
             acc[oid] = {"total": 0, "covered": np.zeros(len(scales), np.int64)}
-        for fr in progress(frames[:: max(1, int(opts.coverage_stride))], desc=f"coverage scene {sid}", unit="frame"):
-            task = frame_task(fr, layout, centres, overrides)
-            try:
-                label = read_label(task["label_path"]) if task["label_path"] else None
-            except YcbvssError:
-                continue
-            items, vis, oids = [], [], []
-            for ob in task["objects"]:
-                T = np.asarray(ob["T_m2c"])
-                if not np.all(np.isfinite(T)) or T[2, 3] <= 0:
-                    continue
-                if label is not None:
-                    v = label == ob["obj_id"]
-                elif ob.get("mask_visib_path") and Path(ob["mask_visib_path"]).is_file():
-                    v = read_mask(ob["mask_visib_path"])
-                else:
-                    continue
-                items.append((f"obj_{ob['obj_id']:06d}", T))
-                vis.append(v)
-                oids.append(ob["obj_id"])
-            cov = covered_counts(r, np.asarray(task["K"]), task["width"], task["height"], items, vis, scales)
-            for k, oid in enumerate(oids):
-                acc[oid]["total"] += int(vis[k].sum())
-                acc[oid]["covered"] += cov[k]
+        tasks = [frame_task(f, layout, centres, overrides) for f in frames[:: max(1, int(opts.coverage_stride))]]
+        bar = progress(total=len(tasks), desc=f"coverage scene {sid}", unit="frame")
+
+        def add(res):
+            bar.update(1)
+            for oid, total, cov in res["objects"]:
+                acc[oid]["total"] += int(total)
+                acc[oid]["covered"] += np.asarray(cov, np.int64)
+        try:
+            ex.map(cfg, tasks, add, func=COVERAGE_FUNC)
+        finally:
+            bar.close()
     out = {}
     for oid, a in sorted(acc.items()):
         tot = max(a["total"], 1)
@@ -281,6 +271,17 @@ def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int
     except OSError as e:
         raise YcbvssError(f"output folder not writable: {e.strerror}", out) from None
     ds, layout, scene_loader = open_input(dataset, split, scenes)
+    own_exec = executor is None
+    ex = executor or make_executor(opts.executor, opts.workers, opts.address, opts.chunk)
+    try:
+        return _run(ds, layout, scene_loader, dataset, split, out, poses, opts, ex)
+    finally:
+        if own_exec:
+            ex.close()
+
+
+def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: SynthOptions, ex) -> dict:
+    from ..progress import progress
     split_dir = out / split
     clean_temporaries(out)
     overrides = load_pose_overrides(poses, ds.models.keys())
@@ -296,7 +297,7 @@ def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int
         coverage = {int(k): v for k, v in st["coverage"].items()}
         centres = {int(k): np.asarray(v) for k, v in st["centres_mm"].items()}
     else:
-        coverage, centres = compute_coverage(ds, layout, scene_loader, overrides, opts)
+        coverage, centres = compute_coverage(ds, layout, scene_loader, overrides, opts, ex)
         write_json_atomic(cov_file, {"coverage": {str(k): v for k, v in coverage.items()},
                                      "centres_mm": {str(k): v.tolist() for k, v in centres.items()}})
     obj_ids = sorted(coverage)
@@ -337,49 +338,43 @@ def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int
               "meshes": {f"obj_{o:06d}": {"path": str((models_dir / f"obj_{o:06d}.ply").resolve())}
                          for o in obj_ids}}
     # ---- frames
-    own_exec = executor is None
-    ex = executor or make_executor(opts.executor, opts.workers, opts.address, opts.chunk)
     acc = ReportAccumulator()
     timing = {"render_s": 0.0, "composite_s": 0.0, "gt_s": 0.0, "total_s": 0.0, "n": 0}
-    try:
-        for sid in ds.scene_ids:
-            scene, load_skipped = scene_loader(sid)
-            frames = _select_frames(scene, opts)
-            for im_id, reason in load_skipped:
-                if opts.frames is not None and im_id not in set(opts.frames):
-                    continue
-                mp = marker_path(split_dir, sid, im_id)
-                if not mp.is_file():
-                    print(f"ycbvss synth: warning: scene {sid} frame {im_id} skipped: {reason}", file=sys.stderr)
-                    write_json_atomic(mp, {"scene_id": sid, "im_id": im_id, "skipped": reason, "warnings": []})
-            todo = [frame_task(f, layout, centres, overrides) for f in frames
-                    if not marker_path(split_dir, sid, f.im_id).is_file()]
-            bar = progress(total=len(frames), desc=f"synth scene {sid}", unit="frame", initial=len(frames) - len(todo))
+    for sid in ds.scene_ids:
+        scene, load_skipped = scene_loader(sid)
+        frames = _select_frames(scene, opts)
+        for im_id, reason in load_skipped:
+            if opts.frames is not None and im_id not in set(opts.frames):
+                continue
+            mp = marker_path(split_dir, sid, im_id)
+            if not mp.is_file():
+                print(f"ycbvss synth: warning: scene {sid} frame {im_id} skipped: {reason}", file=sys.stderr)
+                write_json_atomic(mp, {"scene_id": sid, "im_id": im_id, "skipped": reason, "warnings": []})
+        todo = [frame_task(f, layout, centres, overrides) for f in frames
+                if not marker_path(split_dir, sid, f.im_id).is_file()]
+        bar = progress(total=len(frames), desc=f"synth scene {sid}", unit="frame", initial=len(frames) - len(todo))
 
-            def on_result(r):
-                bar.update(1)
-                if r.get("timing"):
-                    for k in ("render_s", "composite_s", "gt_s", "total_s"):
-                        timing[k] += r["timing"][k]
-                    timing["n"] += 1
-                for w in r.get("warnings", []):
-                    print(f"ycbvss synth: warning: {w}", file=sys.stderr)
-                if r.get("skipped"):
-                    print(f"ycbvss synth: warning: scene {r['scene_id']} frame {r['im_id']} skipped: "
-                          f"{r['skipped']}", file=sys.stderr)
+        def on_result(r):
+            bar.update(1)
+            if r.get("timing"):
+                for k in ("render_s", "composite_s", "gt_s", "total_s"):
+                    timing[k] += r["timing"][k]
+                timing["n"] += 1
+            for w in r.get("warnings", []):
+                print(f"ycbvss synth: warning: {w}", file=sys.stderr)
+            if r.get("skipped"):
+                print(f"ycbvss synth: warning: scene {r['scene_id']} frame {r['im_id']} skipped: "
+                      f"{r['skipped']}", file=sys.stderr)
 
-            try:
-                ex.map(config, todo, on_result)
-            finally:
-                bar.close()
-            markers = assemble_scene(split_dir, sid)
-            want = {f.im_id for f in frames} | {i for i, _ in load_skipped}
-            for i, m in sorted(markers.items()):
-                if i in want:
-                    acc.add(m)
-    finally:
-        if own_exec:
-            ex.close()
+        try:
+            ex.map(config, todo, on_result)
+        finally:
+            bar.close()
+        markers = assemble_scene(split_dir, sid)
+        want = {f.im_id for f in frames} | {i for i, _ in load_skipped}
+        for i, m in sorted(markers.items()):
+            if i in want:
+                acc.add(m)
     report = build_report(inputs, opts, models_state, acc, {o: ds.models[o].name for o in obj_ids})
     write_json_atomic(out / "synth_report.json", report)
     if timing["n"]:
