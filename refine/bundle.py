@@ -161,8 +161,9 @@ class _Stage:
                 y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
                 raw = composite(vr, pb.views[i].image)[y0:y1, x0:x1]
                 masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
-                matches = flow_matches(normalize_for_flow(raw), normalize_for_flow(pb.views[i].image[y0:y1, x0:x1]),
-                                       masks, opt.flow, corner_image=raw)
+                img_c = pb.views[i].image[y0:y1, x0:x1]
+                matches = flow_matches(normalize_for_flow(raw), normalize_for_flow(img_c), masks, opt.flow,
+                                       corner_image=raw, dst_image=img_c)
                 matches = [(a + (x0, y0), b + (x0, y0)) for a, b in matches]
                 for j, (xs, xd) in zip(objs, matches):
                     if len(xs) == 0:
@@ -199,7 +200,8 @@ class _Stage:
                 for j in vr.obj_index:
                     m |= object_mask(vr, j, opt.match_erode_px)
                 (xs, xd), = flow_matches(None, None, [m[y0:y1, x0:x1]], opt.flow, flows=flows,
-                                         corner_image=pb.views[k].image[y0:y1, x0:x1])
+                                         corner_image=pb.views[k].image[y0:y1, x0:x1],
+                                         dst_image=pb.views[i].image[y0:y1, x0:x1])
                 xs, xd = xs + (x0, y0), xd + (x0, y0)
                 if len(xs) == 0:
                     continue

@@ -49,20 +49,20 @@ def sample_model_points(vertices_mm: np.ndarray, n: int, rng: np.random.Generato
     return v[rng.choice(len(v), n, replace=False)]
 
 
-def _reproj_cost(K, P_hat, P, X) -> float:
-    a = object_point_jacobians(K, np.eye(4), P_hat, X)[0]
-    b, _, _, ok = object_point_jacobians(K, np.eye(4), P, X)[:4]
-    if not ok.all():
-        return np.inf
-    return float(np.mean(np.minimum(np.linalg.norm(a - b, axis=1), 50.0)))
+def _reproj_cost(K, P_hat, P, X, trunc_px: float = 50.0) -> float:
+    """Mean truncated reprojection distance; points behind either camera count as truncated."""
+    a, _, _, ok_a = object_point_jacobians(K, np.eye(4), P_hat, X)
+    b, _, _, ok_b = object_point_jacobians(K, np.eye(4), P, X)
+    d = np.where(ok_a & ok_b, np.linalg.norm(a - b, axis=1), trunc_px)
+    return float(np.mean(np.minimum(d, trunc_px)))
 
 
 def propagate(n_views: int, n_objs: int, obs: dict[tuple[int, int], np.ndarray], Ks: list[np.ndarray],
               X: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Initial guess by propagation over the view-object graph starting at view 0.
 
-    Cameras that see an already placed object take the candidate (one per such object) with the
-    lowest truncated reprojection cost over all their placed observations. Returns T_c, T_m,
+    The unknown camera seeing the most placed objects is placed next, taking the candidate (one per
+    such object) with the lowest truncated reprojection cost over all its placed observations. Returns T_c, T_m,
     cam_known (n,), obj_known (m,). Views not connected to view 0 take the nearest connected view's
     camera (by index); objects never observed stay unknown."""
     T_c = np.tile(np.eye(4), (n_views, 1, 1))
@@ -82,15 +82,14 @@ def propagate(n_views: int, n_objs: int, obs: dict[tuple[int, int], np.ndarray],
                 T_m[j] = inv_T(T_c[i]) @ P
                 ok_[j] = True
                 changed = True
-        for i in range(n_views):
-            if ck[i]:
-                continue
-            cands = [obs[(i, j)] @ inv_T(T_m[j]) for j in range(n_objs) if ok_[j] and (i, j) in obs]
-            if not cands:
-                continue
+        # place the unknown camera that sees the most placed objects first (consensus among candidates)
+        counts = [(sum(1 for j in range(n_objs) if ok_[j] and (i, j) in obs), i) for i in range(n_views) if not ck[i]]
+        counts = [c for c in counts if c[0] > 0]
+        if counts:
+            _, i = max(counts)
             seen = [j for j in range(n_objs) if ok_[j] and (i, j) in obs]
-            best = min(cands, key=lambda C: sum(_reproj_cost(Ks[i], obs[(i, j)], C @ T_m[j], X[j]) for j in seen))
-            T_c[i] = best
+            cands = [obs[(i, j)] @ inv_T(T_m[j]) for j in seen]
+            T_c[i] = min(cands, key=lambda C: sum(_reproj_cost(Ks[i], obs[(i, j)], C @ T_m[j], X[j]) for j in seen))
             ck[i] = True
             changed = True
     if ck.any():

@@ -75,17 +75,26 @@ def reciprocal_matches(pts: np.ndarray, fwd: np.ndarray, bwd: np.ndarray, check_
 
 
 def flow_matches(src: np.ndarray, dst: np.ndarray, src_masks: list[np.ndarray], opt: FlowOptions,
-                 flows: tuple[np.ndarray, np.ndarray] | None = None, corner_image: np.ndarray | None = None
-                 ) -> list[tuple[np.ndarray, np.ndarray]]:
+                 flows: tuple[np.ndarray, np.ndarray] | None = None, corner_image: np.ndarray | None = None,
+                 dst_image: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """Matches src -> dst at corners of ``corner_image`` (default ``src``) inside each mask of
-    ``src_masks`` (one list entry per mask). ``flows`` = (fwd, bwd) may be passed to reuse flows."""
+    ``src_masks`` (one list entry per mask). ``flows`` = (fwd, bwd) may be passed to reuse flows.
+    With ``dst_image`` a match must also land on texture there (min eigenvalue >= min_eig / 4):
+    flow into a uniform region passes the reciprocal check but carries no information."""
     if flows is None:
         flows = (dense_flow(src, dst, opt), dense_flow(dst, src, opt))
     fwd, bwd = flows
     ci = src if corner_image is None else corner_image
+    me_dst = None
+    if dst_image is not None and opt.min_eig > 0:
+        me_dst = cv2.cornerMinEigenVal(cv2.GaussianBlur(_gray_u8(dst_image), (0, 0), 1.0), 3, 3)[..., None]
     out = []
     for m in src_masks:
-        out.append(reciprocal_matches(corners(ci, m, opt), fwd, bwd, opt.check_px))
+        a, b = reciprocal_matches(corners(ci, m, opt), fwd, bwd, opt.check_px)
+        if me_dst is not None and len(b):
+            keep = sample_bilinear(me_dst, b)[0][:, 0] >= 0.25 * opt.min_eig
+            a, b = a[keep], b[keep]
+        out.append((a, b))
     return out
 
 

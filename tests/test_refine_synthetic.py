@@ -102,7 +102,8 @@ def test_bad_inputs_never_nan(scene4):
     assert all(np.all(np.isfinite(T)) for T in res.poses.values())
     assert isinstance(res.converged, bool)
     assert not any(k[1] == 5 for k in res.visible)                        # never visible: no image terms
-    assert all(np.allclose(res.poses[(f.im_id, 5)][:3, 3], init[(f.im_id, 5)][:3, 3], atol=50.0) for f in frames)
+    f0 = frames[0].im_id                                                   # its world pose stays the initialisation
+    assert np.allclose(res.poses[(f0, 5)], res.init_poses[(f0, 5)], atol=1e-3)
     # objects stay close to GT in the good views despite the bad ones (robust init + refinement)
     e = _mean_err(res.poses, {k: gt[k] for k in res.poses if k[0] != frames[2].im_id and k[1] != 5}, pts,
                   frames[0].camera.K)
