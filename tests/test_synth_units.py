@@ -158,3 +158,22 @@ def test_unwritable_output_is_a_clear_error(tmp_path, ycbv_root):
     blocker.write_text("x")
     with pytest.raises(YcbvssError, match="not writable"):
         run_synth(ycbv_root, "test", blocker / "out", scenes=[0])
+
+
+def test_bop_input_with_nan_pose_skips_only_that_frame(tmp_path):
+    import json
+
+    from ycbvss.scene import ObjectModel
+    from ycbvss.synth.inputs import load_bop_scene_tolerant
+    sdir = tmp_path / "test" / "000004"
+    sdir.mkdir(parents=True)
+    cam = {"cam_K": [600, 0, 320, 0, 600, 240, 0, 0, 1], "depth_scale": 0.1}
+    (sdir / "scene_camera.json").write_text(json.dumps({"1": cam, "2": cam, "3": cam}))
+    good = {"cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1], "cam_t_m2c": [0, 0, 700], "obj_id": 5}
+    nan = {**good, "cam_t_m2c": [0, float("nan"), 700]}
+    behind = {**good, "cam_t_m2c": [0, 0, -50]}
+    (sdir / "scene_gt.json").write_text(json.dumps({"1": [good], "2": [good, nan], "3": [behind]}))
+    scene, skipped = load_bop_scene_tolerant(tmp_path / "test", 4, {5: ObjectModel(5)})
+    assert [f.im_id for f in scene.frames] == [1]
+    assert [i for i, _ in skipped] == [2, 3]
+    assert "NaN" in skipped[0][1] and "behind" in skipped[1][1]
