@@ -31,22 +31,23 @@ def main() -> int:
 
     out = a.out or Path(tempfile.mkdtemp(prefix="ycbvss_bench_demo_"))
     load0 = os.getloadavg()
-    cpu0 = time.process_time()
     st = Stages(quiet=True)
     s = run_demo(DemoOptions(out=out, quick=a.quick, renderer=a.renderer, ablation=a.ablation, frames=a.frames), st)
     total = st.total_s
     print(f"cores: {os.cpu_count()}, load average before: {load0[0]:.1f}, after: {os.getloadavg()[0]:.1f}")
     print(f"demo ({'quick' if a.quick else 'default'}, renderer {a.renderer}, ablation {a.ablation}): "
           f"{s['frames']} frames, {s['pairs']} pairs")
+    cores = os.cpu_count() or 1
+    est = 0.0
+    print(f"  {'stage':<45s} {'wall':>7s}   CPU: {'main':>6s} {'children':>8s}   idle estimate")
     for k, v in st.times.items():
-        print(f"  {k:<45s} {v:7.1f} s")
-    import resource
-    ch = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu_main, cpu_children = time.process_time() - cpu0, ch.ru_utime + ch.ru_stime
-    print(f"  {'total wall clock':<45s} {total:7.1f} s")
-    print(f"  CPU: main process {cpu_main:.1f} s (refinement is mostly single-threaded), Blender workers "
-          f"{cpu_children:.1f} s (all cores) -> idle-machine estimate main + workers / cores = "
-          f"{cpu_main + cpu_children / (os.cpu_count() or 1):.0f} s")
+        c_main, c_child = st.cpu.get(k, (0.0, 0.0))
+        # main process and children (Blender workers / the ablation process) run concurrently
+        e = max(c_main, (c_main + c_child) / cores)
+        est += e
+        print(f"  {k:<45s} {v:7.1f} s      {c_main:6.1f} {c_child:8.1f}   {e:6.1f} s")
+    print(f"  {'total':<45s} {total:7.1f} s   idle-machine estimate (sum of max(main, all CPU / {cores} cores)): "
+          f"{est:.0f} s")
     i, r = s["initial"], s["refined"]
     print(f"initial: ADD {i['achieved_add_mm']:.2f} mm, PRJ {i['achieved_prj_px']:.2f} px; "
           f"refined: ADD {r['add_mm']:.3f} mm, PRJ {r['prj_px']:.3f} px, tz {r['tz_mm']:.3f} mm, R {r['r_deg']:.3f} deg")

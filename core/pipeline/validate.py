@@ -86,18 +86,29 @@ class Stages:
 
     def __init__(self, quiet: bool = False):
         self.times: dict[str, float] = {}
+        self.cpu: dict[str, tuple[float, float]] = {}   # stage -> (CPU s of this process, of child processes)
         self.quiet = quiet
         self.t0 = time.perf_counter()
+
+    @staticmethod
+    def _cpu() -> tuple[float, float]:
+        import resource
+        a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+        return a.ru_utime + a.ru_stime, b.ru_utime + b.ru_stime
 
     @contextmanager
     def stage(self, name: str):
         if not self.quiet:
             print(f"ycbvss: == {name} ==", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
+        c0 = self._cpu()
         try:
             yield
         finally:
             self.times[name] = self.times.get(name, 0.0) + time.perf_counter() - t0
+            c1 = self._cpu()
+            prev = self.cpu.get(name, (0.0, 0.0))
+            self.cpu[name] = (prev[0] + c1[0] - c0[0], prev[1] + c1[1] - c0[1])
 
     @property
     def total_s(self) -> float:
