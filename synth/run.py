@@ -303,13 +303,33 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
     obj_ids = sorted(coverage)
     if not obj_ids:
         raise YcbvssError("no annotated objects in the selected frames", ds.root)
+    # ---- an existing output fixes its settings and models: resume/extend only with the same ones
+    run_file = state_dir / "run.json"
+    settings = {"seed": int(opts.seed), "render": opts.render_settings(), "noise": opts.noise.to_dict(),
+                "colour_fit": [opts.colour_fit, opts.colour_fit_method], "layout": layout, "split": split,
+                "dataset": inputs["dataset"], "poses": inputs["poses"]}
+    prev = read_json(run_file, "synth run state") if run_file.is_file() else None
+    if prev is not None and json.loads(json.dumps(settings)) != prev["settings"]:
+        diff = sorted(k for k in settings if json.loads(json.dumps(settings[k])) != prev["settings"].get(k))
+        raise YcbvssError(f"output was synthesised with different settings ({', '.join(diff)}); "
+                          "use a new --out or delete it", out)
+    prev_scales = {int(k): float(v) for k, v in (prev or {}).get("scales", {}).items()}
+    prev_centres = {int(k): np.asarray(v) for k, v in (prev or {}).get("centres_mm", {}).items()}
+    for oid in obj_ids:
+        if oid in prev_centres and np.abs(prev_centres[oid] - centres[oid]).max() > 1e-6:
+            raise YcbvssError(f"object {oid}: model differs from the one this output was made with", out)
     models_state = {"objects": {}}
     scales = {}
     for oid in obj_ids:
         c = coverage[oid]
-        if opts.scales and oid in opts.scales:
-            s = float(opts.scales[oid])
-            grid = (1.0,) + tuple(opts.scale_grid)
+        fixed = dict(opts.scales or {})
+        if oid in prev_scales:
+            if oid in fixed and abs(fixed[oid] - prev_scales[oid]) > 1e-12:
+                raise YcbvssError(f"object {oid}: --scales {fixed[oid]} differs from the scale {prev_scales[oid]} "
+                                  "this output was made with", out)
+            fixed[oid] = prev_scales[oid]
+        if oid in fixed:
+            s = float(fixed[oid])
             cov_after = c["coverage_by_scale"].get(f"{s:g}")
             flagged = cov_after is not None and cov_after < opts.coverage_target
         else:
@@ -326,12 +346,17 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
             "coverage_by_scale": c["coverage_by_scale"], "flagged": bool(flagged),
             "model_warnings": c.get("warnings", [])}
     models_dir = out / "models"
-    mkey = _fingerprint([{str(k): v for k, v in scales.items()}, {str(k): c.tolist() for k, c in centres.items()},
-                         [str(ds.models[o].path) for o in obj_ids]])
+    all_scales = {**prev_scales, **scales}
+    all_centres = {**prev_centres, **centres}
+    mkey = _fingerprint([{str(k): v for k, v in sorted(all_scales.items())},
+                         {str(k): np.asarray(c).tolist() for k, c in sorted(all_centres.items())}])
     mstate = state_dir / f"models_{mkey}.done"
     if not mstate.is_file() or not (models_dir / "models_info.json").is_file():
-        write_dilated_models(models_dir, ds.models, centres, scales)
-        write_json_atomic(mstate, {"scales": {str(k): v for k, v in scales.items()}})
+        write_dilated_models(models_dir, ds.models, all_centres, all_scales)
+        write_json_atomic(mstate, {"scales": {str(k): v for k, v in sorted(all_scales.items())}})
+    write_json_atomic(run_file, {"settings": settings,
+                                 "scales": {str(k): v for k, v in sorted(all_scales.items())},
+                                 "centres_mm": {str(k): np.asarray(c).tolist() for k, c in sorted(all_centres.items())}})
     config = {"split_dir": str(split_dir), "seed": int(opts.seed), "render": opts.render_settings(),
               "noise": opts.noise.to_dict(), "colour_fit": opts.colour_fit,
               "colour_fit_method": opts.colour_fit_method,
