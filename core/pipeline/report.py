@@ -51,15 +51,16 @@ def table5(errs: dict, caption: str):
 def summary_table(errs: dict, pr):
     """Mean / median ADD(-S) and PRJ per pose set (initial, refined variants)."""
     from ..eval.tables import Row, Table
-    t = Table(["mean ADD (mm)", "median ADD (mm)", "mean PRJ (px)", "median PRJ (px)", "pairs"],
+    t = Table(["mean ADD (mm)", "median ADD (mm)", "mean PRJ (px)", "median PRJ (px)"],
               label_header="pose set", digits=2,
               caption=f"Initial poses: GT + calibrated random deviation (targets: ADD {pr.target_add_mm:g} mm, "
                       f"PRJ {pr.target_prj_px:g} px). ADD-S for symmetric objects.")
     for name, e in errs.items():
         a = np.concatenate([v["add_mm"] for v in e.values()])
         p = np.concatenate([v["prj_px"] for v in e.values()])
-        t.rows.append(Row(name, [_nanstat(np.nanmean, a), _nanstat(np.nanmedian, a), _nanstat(np.nanmean, p),
-                                 _nanstat(np.nanmedian, p), float(np.isfinite(a).sum())]))
+        t.rows.append(Row(f"{name} ({int(np.isfinite(a).sum())} pairs)",
+                          [_nanstat(np.nanmean, a), _nanstat(np.nanmedian, a), _nanstat(np.nanmean, p),
+                           _nanstat(np.nanmedian, p)]))
     return t
 
 
@@ -88,7 +89,7 @@ def table_html(t, title: str = "") -> str:
         cls = ' class="rule"' if r.rule_before else ""
         cells = []
         for c, v in enumerate(r.values):
-            s = html.escape(_fmt(v, t.digits) if not (t.columns[c] == "pairs" and v is not None) else f"{int(v)}")
+            s = html.escape(_fmt(v, t.digits))
             cells.append(f"<td><b>{s}</b></td>" if (r.bold and r.bold[c] and s != "-") else f"<td>{s}</td>")
         lab = html.escape(r.label) + ("*" if r.mark else "")
         h.append(f"<tr{cls}><td class=\"lab\">{lab}</td>{''.join(cells)}</tr>")
