@@ -35,7 +35,8 @@ def register(sub) -> None:
     p.add_argument("--poses", help="BOP19 results CSV with refined poses (recentred BOP model frame) to render "
                                    "instead of scene_gt")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--workers", type=int, default=None, help="Blender worker processes (default: all cores)")
+    p.add_argument("--workers", type=int, default=None, help="Blender worker processes (default: cores/2, each with cores/workers render threads: "
+                                                     "all cores)")
     p.add_argument("--executor", choices=["local", "ray"], default="local")
     p.add_argument("--address", default=None, help="Ray address (e.g. auto)")
     p.add_argument("--chunk", type=int, default=8, help="frames per Ray task")
