@@ -225,7 +225,10 @@ def refine_all(scenes: list[Scene], models: dict, init: dict, variants: dict, op
     side_jobs = [(v, sc, variants[v]) for v in variants if v != "using all" for sc in scenes]
     bar = progress(total=len(main_jobs) + len(side_jobs), desc="refine", unit="run")
     fut = pool = None
-    portable = _portable_models(models) if side_jobs and (os.cpu_count() or 1) >= 2 and opts.parallel else None
+    # a second process pays ~5 s of start-up (imports, GL context): only worth it for bigger runs
+    big = sum(len(sc.frames) for sc in scenes) >= 12
+    portable = (_portable_models(models) if side_jobs and big and (os.cpu_count() or 1) >= 2 and opts.parallel
+                else None)
     if portable is not None:
         import concurrent.futures as cf
         import multiprocessing as mp
