@@ -16,7 +16,7 @@ from ycbvss.geometry.so3 import is_rotation, rotation_angle_deg
 from .edge import edge_field
 from .jacobians import backproject_px
 from .init import initialise, sample_model_points, symmetry_transforms
-from .matching import FlowOptions, dense_flow, flow_matches, normalize_for_flow
+from .matching import FlowOptions, dense_flow, flow_matches, min_eig_map, normalize_for_flow
 from .problem import BundleProblem, View
 from .solver import SolverOptions, covariance, run_lm
 from .templates import composite, view_edge_samples, ensure_meshes, get_renderer, object_mask, render_view
@@ -47,7 +47,7 @@ class RefineOptions:
     keyframe_step: int = 0
     max_iters: int = 5
     coarse_iters: int = 3
-    inner_iters: int = 4
+    inner_iters: int = 3
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px scaled by image width / 640 (>= 1)
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
     n_edge_points: int = 1000
@@ -56,7 +56,7 @@ class RefineOptions:
     n_matches: int = 1000
     match_erode_px: int = 6
     flow_margin_px: int = 24
-    match_every: int = 3              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
+    match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
     min_visible_px: int = 30
@@ -108,6 +108,7 @@ class _Stage:
         ensure_meshes(self.renderer, {oid: models[oid] for oid in pb.obj_ids})
         self.rng = np.random.default_rng(opt.seed)
         self._norm: dict[int, np.ndarray] = {}
+        self._me: dict[int, np.ndarray] = {}
         self._flows: dict[tuple[int, int], tuple] = {}
         self.visible: set[tuple[int, int]] = set()
         self.converged = False
@@ -115,6 +116,11 @@ class _Stage:
 
     def _t(self, key: str, dt: float) -> None:
         self.stats[key] = self.stats.get(key, 0.0) + dt
+
+    def me_image(self, i: int) -> np.ndarray:
+        if i not in self._me:
+            self._me[i] = min_eig_map(self.pb.views[i].image)
+        return self._me[i]
 
     def norm_image(self, i: int) -> np.ndarray:
         if i not in self._norm:
@@ -163,7 +169,7 @@ class _Stage:
                 masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
                 img_c = pb.views[i].image[y0:y1, x0:x1]
                 matches = flow_matches(normalize_for_flow(raw), normalize_for_flow(img_c), masks, opt.flow,
-                                       corner_image=raw, dst_image=img_c)
+                                       corner_image=raw, dst_me=self.me_image(i)[y0:y1, x0:x1])
                 matches = [(a + (x0, y0), b + (x0, y0)) for a, b in matches]
                 for j, (xs, xd) in zip(objs, matches):
                     if len(xs) == 0:
@@ -201,7 +207,7 @@ class _Stage:
                     m |= object_mask(vr, j, opt.match_erode_px)
                 (xs, xd), = flow_matches(None, None, [m[y0:y1, x0:x1]], opt.flow, flows=flows,
                                          corner_image=pb.views[k].image[y0:y1, x0:x1],
-                                         dst_image=pb.views[i].image[y0:y1, x0:x1])
+                                         corner_me=self.me_image(k)[y0:y1, x0:x1], dst_me=self.me_image(i)[y0:y1, x0:x1])
                 xs, xd = xs + (x0, y0), xd + (x0, y0)
                 if len(xs) == 0:
                     continue

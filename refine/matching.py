@@ -42,8 +42,14 @@ def dense_flow(src: np.ndarray, dst: np.ndarray, opt: FlowOptions) -> np.ndarray
                                         opt.winsize, opt.iterations, opt.poly_n, opt.poly_sigma, 0)
 
 
-def corners(img: np.ndarray, mask: np.ndarray | None, opt: FlowOptions, max_n: int | None = None) -> np.ndarray:
-    """Shi-Tomasi corners (N, 2) float64 of an image inside ``mask``."""
+def min_eig_map(img: np.ndarray) -> np.ndarray:
+    """Shi-Tomasi response (cv2.cornerMinEigenVal, block 3) of the image blurred with sigma 1 px (H, W) float32."""
+    return cv2.cornerMinEigenVal(cv2.GaussianBlur(_gray_u8(img), (0, 0), 1.0), 3, 3)
+
+
+def corners(img: np.ndarray, mask: np.ndarray | None, opt: FlowOptions, max_n: int | None = None,
+            me: np.ndarray | None = None) -> np.ndarray:
+    """Shi-Tomasi corners (N, 2) float64 of an image inside ``mask`` (``me``: precomputed :func:`min_eig_map`)."""
     if mask is not None and not np.any(mask):
         return np.zeros((0, 2))
     g = _gray_u8(img)
@@ -54,7 +60,7 @@ def corners(img: np.ndarray, mask: np.ndarray | None, opt: FlowOptions, max_n: i
         return np.zeros((0, 2))
     pts = pts.reshape(-1, 2).astype(np.float64)
     if opt.min_eig > 0:   # absolute threshold: a uniform (textureless) region yields no corners at all
-        me = cv2.cornerMinEigenVal(cv2.GaussianBlur(g, (0, 0), 1.0), 3, 3)
+        me = min_eig_map(g) if me is None else me
         pts = pts[me[pts[:, 1].astype(int), pts[:, 0].astype(int)] >= opt.min_eig]
     return pts
 
@@ -76,7 +82,8 @@ def reciprocal_matches(pts: np.ndarray, fwd: np.ndarray, bwd: np.ndarray, check_
 
 def flow_matches(src: np.ndarray, dst: np.ndarray, src_masks: list[np.ndarray], opt: FlowOptions,
                  flows: tuple[np.ndarray, np.ndarray] | None = None, corner_image: np.ndarray | None = None,
-                 dst_image: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+                 dst_image: np.ndarray | None = None, corner_me: np.ndarray | None = None,
+                 dst_me: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """Matches src -> dst at corners of ``corner_image`` (default ``src``) inside each mask of
     ``src_masks`` (one list entry per mask). ``flows`` = (fwd, bwd) may be passed to reuse flows.
     With ``dst_image`` a match must also land on texture there (min eigenvalue >= min_eig / 4):
@@ -86,11 +93,11 @@ def flow_matches(src: np.ndarray, dst: np.ndarray, src_masks: list[np.ndarray], 
     fwd, bwd = flows
     ci = src if corner_image is None else corner_image
     me_dst = None
-    if dst_image is not None and opt.min_eig > 0:
-        me_dst = cv2.cornerMinEigenVal(cv2.GaussianBlur(_gray_u8(dst_image), (0, 0), 1.0), 3, 3)[..., None]
+    if opt.min_eig > 0 and (dst_image is not None or dst_me is not None):
+        me_dst = (min_eig_map(dst_image) if dst_me is None else dst_me)[..., None]
     out = []
     for m in src_masks:
-        a, b = reciprocal_matches(corners(ci, m, opt), fwd, bwd, opt.check_px)
+        a, b = reciprocal_matches(corners(ci, m, opt, me=corner_me), fwd, bwd, opt.check_px)
         if me_dst is not None and len(b):
             keep = sample_bilinear(me_dst, b)[0][:, 0] >= 0.25 * opt.min_eig
             a, b = a[keep], b[keep]
