@@ -68,5 +68,5 @@ def write_preview(dataset: str | Path, split: str = "test", out: str | Path | No
             if i in pick:
                 sheet.append(t)
         if sheet:
-            write_png(out / f"{sid:06d}_contact.png", contact_sheet(sheet, cols=2))
+            write_png(out / f"{sid:06d}_contact.png", contact_sheet(sheet, cols=2, thumb_w=960))
     return out

@@ -161,7 +161,9 @@ def test_ray_executor_matches_local(synth_out, ycbv_root, tmp_path):
     from ycbvss.synth.executors import RayExecutor
     from ycbvss.synth.run import run_synth
     ref, rep = synth_out
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    started = not ray.is_initialized()
+    if started:
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:
         ex = RayExecutor(workers=1, chunk=1)
         try:
@@ -170,7 +172,8 @@ def test_ray_executor_matches_local(synth_out, ycbv_root, tmp_path):
         finally:
             ex.close()
     finally:
-        ray.shutdown()
+        if started:
+            ray.shutdown()
     assert _same_frame_files(ref, tmp_path / "ray", 1, [1, 2]) >= 2 * 10
 
 
