@@ -12,14 +12,14 @@ import hashlib
 import json
 import sys
 import warnings
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import YcbvssError
 from ..io.atomic import read_json, write_json_atomic
-from .coverage import SCALE_GRID, TARGET, choose_scale, covered_counts
+from .coverage import SCALE_GRID, TARGET, choose_scale
 from .frame import marker_path
 from .inputs import open_input
 from .frame_files import clean_temporaries
@@ -261,8 +261,10 @@ def build_report(inputs: dict, opts: SynthOptions, models_state: dict, acc: Repo
 # ------------------------------------------------------------------------------ main entry
 def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int] | None = None,
               poses: str | Path | None = None, opts: SynthOptions | None = None, executor=None) -> dict:
-    """Synthesise YCBV-SS into the BOP root ``out`` (resumable); returns the report dict."""
-    from ..progress import progress
+    """Synthesise YCBV-SS into the BOP root ``out`` (resumable); returns the report dict.
+
+    ``executor``: a :class:`~ycbvss.synth.executors.LocalExecutor` / ``RayExecutor`` to use (not closed here);
+    default: one made from ``opts`` (closed at the end)."""
     from .executors import make_executor
     opts = opts or SynthOptions()
     out = Path(out)

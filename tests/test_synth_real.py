@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ycbvss.io.images import read_depth_mm, read_mask
+from ycbvss.io.images import read_mask
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 
