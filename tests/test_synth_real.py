@@ -194,8 +194,9 @@ def test_render_job_contract_matches_fast_renderer(ycbv_root, tmp_path):
            "meshes": {"m": {"path": str(path), "unit_scale": 1000.0, "scale": 1.03}},
            "frames": [{"id": 0, "K": K.tolist(), "objects": [{"mesh": "m", "pass_index": 5, "T_m2c": T.tolist()}],
                        "out_dir": str(tmp_path)}]}
-    res = render_job(job, workers=1)
-    assert [r["id"] for r in res] == [0]
+    done = []
+    res = render_job(job, workers=1, on_done=done.append)
+    assert [r["id"] for r in res] == [0] and len(done) == 1
     idx = cv2.imread(res[0]["index"], cv2.IMREAD_UNCHANGED)
     depth = read_exr_depth(res[0]["depth"])
     rgba = read_exr_rgba(res[0]["rgba"])
