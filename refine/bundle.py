@@ -47,7 +47,7 @@ class RefineOptions:
     keyframe_step: int = 0
     max_iters: int = 5
     coarse_iters: int = 3
-    inner_iters: int = 3
+    inner_iters: int = 4
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px scaled by image width / 640 (>= 1)
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
     n_edge_points: int = 1000
