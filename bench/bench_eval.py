@@ -77,6 +77,8 @@ def main() -> None:
     ap.add_argument("--objects", type=int, default=21)
     ap.add_argument("--regime", choices=("mixed", "refined", "tracker"), default="mixed")
     ap.add_argument("--k", type=int, default=16, help="ModelPoints candidates (0 = KD-tree only)")
+    ap.add_argument("--backend", choices=("auto", "numba", "scipy"), default="auto",
+                    help="ModelPoints backend (auto = numba when installed)")
     ap.add_argument("--seed", type=int, default=0)
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
@@ -86,7 +88,7 @@ def main() -> None:
         models.append(surface_points(rng, a.pts, o % 3, ext))
     obj = rng.integers(0, a.objects, a.n)
     Re, te, Rg, tg = make_pairs(rng, a.n, a.regime)
-    print(f"{a.n} pairs, {a.objects} objects x {a.pts} points, regime {a.regime}, k={a.k}, "
+    print(f"{a.n} pairs, {a.objects} objects x {a.pts} points, regime {a.regime}, k={a.k}, backend {a.backend}, "
           f"load average before {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
 
     # ---- vectorised
@@ -95,7 +97,7 @@ def main() -> None:
     stats = {"certified": 0, "tree": 0}
     for o in range(a.objects):
         sel = np.flatnonzero(obj == o)
-        mp = ModelPoints(models[o], k=a.k)
+        mp = ModelPoints(models[o], k=a.k, backend=a.backend)
         e = pose_errors(Re[sel], te[sel], Rg[sel], tg[sel], K, mp)
         for k in ERROR_KEYS:
             out[k][sel] = e[k]
