@@ -7,7 +7,8 @@ points ``pts`` are (P, 3) mm in the model frame (``ObjectModel.vertices_mm``).
 - :func:`te_axes_mm` ``|t_est - t_gt|`` per camera axis (tx, ty, tz), mm.
 - :func:`te_mm` ``||t_est - t_gt||``, mm.
 - :func:`re_deg` angle of ``R_est R_gt^T``, degrees in [0, 180].
-- :func:`prj_px` mean 2D distance of the model points projected with both poses (pixels).
+- :func:`prj_px` mean 2D distance of the model points projected with both poses (pixels);
+  a compiled numba kernel when numba is installed, numpy blocks otherwise.
 - :func:`add_mm` ADD: mean distance between corresponding transformed model points (mm).
 - :func:`adds_mm` ADD-S: for every point in the GT pose, distance to the nearest point in the
   estimated pose, averaged (= bop_toolkit ``adi``). Uses one :class:`ModelPoints` index per object
@@ -21,6 +22,16 @@ from __future__ import annotations
 import numpy as np
 
 from .model_points import ModelPoints
+
+
+def _prj_kernel():
+    """numba PRJ kernel when ModelPoints' compiled path is available (numba imports), else None."""
+    from .model_points import compiled_kernel
+    if compiled_kernel() is None:
+        return None
+    from .nn_kernel import prj_kernel
+    return prj_kernel
+
 
 def _f64(a) -> np.ndarray:
     return np.asarray(a, dtype=np.float64)
@@ -104,6 +115,11 @@ def prj_px(R_est, t_est, R_gt, t_gt, K, pts, poses_per_block: int = 16):
     # fold K into the pose: K (R x + t) = (K R) x + K t
     KRe, KRg = K @ R_est, K @ R_gt
     Kte, Ktg = (K @ t_est[..., None])[..., 0], (K @ t_gt[..., None])[..., 0]
+    kernel = _prj_kernel()
+    if kernel is not None:
+        c = np.ascontiguousarray
+        out = kernel(c(pts), c(KRe), c(Kte), c(KRg), c(Ktg))
+        return out[0] if single else out
     out = np.empty(n)
     P = len(pts)
     for s in range(0, n, poses_per_block):

@@ -193,121 +193,18 @@ def build_kdtree(points: np.ndarray, leafsize: int = 8):
             np.array(child, dtype=np.int64), np.array(span, dtype=np.int64), depth)
 
 
-def _make_kernel():
-    import numba
-    from numba import njit, prange
-
-    @njit(cache=True, inline="always")
-    def _gap2(v, lo, hi):
-        if v < lo:
-            return (lo - v) * (lo - v)
-        if v > hi:
-            return (v - hi) * (v - hi)
-        return 0.0
-
-    @njit(cache=True, fastmath=False, nogil=True)
-    def _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d):
-        top = 1
-        stack_n[0] = 0
-        stack_d[0] = 0.0
-        while top > 0:
-            top -= 1
-            if stack_d[top] >= best:
-                continue
-            node = stack_n[top]
-            if child[node, 0] < 0:
-                for k in range(span[node, 0], span[node, 1]):
-                    e0 = y0 - tp[k, 0]
-                    e1 = y1 - tp[k, 1]
-                    e2 = y2 - tp[k, 2]
-                    d = e0 * e0 + e1 * e1 + e2 * e2
-                    if d < best:
-                        best = d
-            else:
-                a = child[node, 0]
-                c = child[node, 1]
-                da = _gap2(y0, lo[a, 0], hi[a, 0]) + _gap2(y1, lo[a, 1], hi[a, 1]) + _gap2(y2, lo[a, 2], hi[a, 2])
-                dc = _gap2(y0, lo[c, 0], hi[c, 0]) + _gap2(y1, lo[c, 1], hi[c, 1]) + _gap2(y2, lo[c, 2], hi[c, 2])
-                if da > dc:                       # push the farther child first
-                    a, c = c, a
-                    da, dc = dc, da
-                if dc < best:
-                    stack_n[top] = c
-                    stack_d[top] = dc
-                    top += 1
-                if da < best:
-                    stack_n[top] = a
-                    stack_d[top] = da
-                    top += 1
-        return best
-
-    @njit(cache=True, parallel=True, fastmath=False)
-    def add_adds_kernel(pts, A, b, with_adds, cand, rho, tp, lo, hi, child, span, depth):
-        """pts (P, 3) in tree order; cand (P, k) indices into pts of each point's k nearest
-        other points; rho (P,) distance to the nearest point outside them. Returns (add, adds)."""
-        n = A.shape[0]
-        P = pts.shape[0]
-        kc = cand.shape[1]
-        add = np.empty(n)
-        adds = np.empty(n)
-        n_tree = np.zeros(n, np.int64)
-        for j in prange(n):
-            stack_n = np.empty(2 * depth + 4, np.int64)
-            stack_d = np.empty(2 * depth + 4)
-            a00, a01, a02 = A[j, 0, 0], A[j, 0, 1], A[j, 0, 2]
-            a10, a11, a12 = A[j, 1, 0], A[j, 1, 1], A[j, 1, 2]
-            a20, a21, a22 = A[j, 2, 0], A[j, 2, 1], A[j, 2, 2]
-            b0, b1, b2 = b[j, 0], b[j, 1], b[j, 2]
-            sa = 0.0
-            ss = 0.0
-            nt = 0
-            for i in range(P):
-                x0, x1, x2 = pts[i, 0], pts[i, 1], pts[i, 2]
-                y0 = a00 * x0 + a01 * x1 + a02 * x2 + b0
-                y1 = a10 * x0 + a11 * x1 + a12 * x2 + b1
-                y2 = a20 * x0 + a21 * x1 + a22 * x2 + b2
-                e0 = y0 - x0
-                e1 = y1 - x1
-                e2 = y2 - x2
-                d2 = e0 * e0 + e1 * e1 + e2 * e2
-                delta = np.sqrt(d2)
-                sa += delta
-                if with_adds:
-                    best = d2
-                    # best of the candidates (exact nearest if certified, else a tight bound)
-                    for q in range(kc):
-                        c = cand[i, q]
-                        e0 = y0 - pts[c, 0]
-                        e1 = y1 - pts[c, 1]
-                        e2 = y2 - pts[c, 2]
-                        d = e0 * e0 + e1 * e1 + e2 * e2
-                        if d < best:
-                            best = d
-                    # every point outside cand[i] is at least rho_i - delta_i away from y
-                    r = rho[i] - delta
-                    if r <= 0.0 or best > r * r * (1.0 - 1e-12):
-                        best = _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d)
-                        nt += 1
-                    ss += np.sqrt(best)
-            add[j] = sa / P
-            adds[j] = ss / P
-            n_tree[j] = nt
-        return add, adds, n_tree
-
-    return add_adds_kernel
+def compiled_kernel():
+    """The numba ADD/ADD-S kernel (:mod:`ycbvss.eval.nn_kernel`), or None when numba is missing."""
+    global _KERNEL
+    if _KERNEL is None:
+        try:
+            from .nn_kernel import add_adds_kernel
+            _KERNEL = add_adds_kernel
+        except ImportError:
+            _KERNEL = False
+    return _KERNEL or None
 
 
 _KERNEL = None
 NB_LEAFSIZE = 32         # measured best of 8..128 for 5000-point models (refined and tracker errors)
 NB_CANDIDATES = 8        # certified candidates per point (4..16 measured; 8 certifies >99.9 % at 0.5 mm)
-
-
-def compiled_kernel():
-    """The numba ADD/ADD-S kernel, or None when numba is not importable (scipy path is used)."""
-    global _KERNEL
-    if _KERNEL is None:
-        try:
-            _KERNEL = _make_kernel()
-        except ImportError:
-            _KERNEL = False
-    return _KERNEL or None
