@@ -22,7 +22,7 @@ def _gap2(v, lo, hi):
     return 0.0
 
 
-@njit(cache=True, fastmath=False, nogil=True)
+@njit(cache=True, fastmath=True, nogil=True)
 def _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d):
     top = 1
     stack_n[0] = 0
@@ -33,13 +33,13 @@ def _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d):
             continue
         node = stack_n[top]
         if child[node, 0] < 0:
+            m = best
             for k in range(span[node, 0], span[node, 1]):
-                e0 = y0 - tp[k, 0]
-                e1 = y1 - tp[k, 1]
-                e2 = y2 - tp[k, 2]
-                d = e0 * e0 + e1 * e1 + e2 * e2
-                if d < best:
-                    best = d
+                e0 = y0 - tp[0, k]
+                e1 = y1 - tp[1, k]
+                e2 = y2 - tp[2, k]
+                m = min(m, e0 * e0 + e1 * e1 + e2 * e2)
+            best = m
         else:
             a = child[node, 0]
             c = child[node, 1]
