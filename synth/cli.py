@@ -48,6 +48,9 @@ def register(sub) -> None:
     p.add_argument("--blur", type=float, default=0.0, help="Gaussian blur sigma of the render (px)")
     p.add_argument("--no-colour-fit", action="store_true")
     p.add_argument("--colour-fit-method", choices=["adaptive", "lsq", "mk"], default="adaptive")
+    p.add_argument("--clear-px", type=int, default=4,
+                   help="in-paint the real objects grown by this many px from the background before compositing, "
+                        "so no rim of a misannotated real object survives outside the render (0 = off; default 4)")
     p.add_argument("--coverage-stride", type=int, default=1, help="use every N-th frame for the coverage search")
     p.add_argument("--scales", help="fixed model scales per object, e.g. 8:1.02,14:1.03 (skips the coverage choice)")
     p.add_argument("--max-frames", type=int, default=None, help="first N frames per scene")
@@ -69,6 +72,7 @@ def _handler(args: argparse.Namespace) -> int:
     opts = SynthOptions(seed=args.seed, samples=args.samples, denoise=args.denoise, max_bounces=args.max_bounces,
                         noise=NoiseParams(shot=args.shot_noise, read=args.read_noise, blur_sigma_px=args.blur),
                         colour_fit=not args.no_colour_fit, colour_fit_method=args.colour_fit_method,
+                        clear_px=args.clear_px,
                         coverage_stride=args.coverage_stride, max_frames=args.max_frames,
                         frames=_scenes(args.frames), workers=args.workers, executor=args.executor,
                         address=args.address, chunk=args.chunk,

@@ -148,7 +148,8 @@ def process_frame(worker, config: dict, task: dict) -> dict:
     noise = NoiseParams(**config.get("noise", {}))
     out_rgb, cstats = composite_frame(rgb, res["rgba"], res["index"], cobjs, noise, rng,
                                       fit=bool(config.get("colour_fit", True)),
-                                      fit_method=config.get("colour_fit_method", "adaptive"))
+                                      fit_method=config.get("colour_fit_method", "adaptive"),
+                                      clear_px=int(config.get("clear_px", 4)))
     index = res["index"]
     obj_px = index > 0
     out_depth = merge_depth(depth, res["depth_mm"], obj_px & (res["depth_mm"] > 0))

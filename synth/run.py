@@ -42,6 +42,7 @@ class SynthOptions:
     noise: NoiseParams = field(default_factory=NoiseParams)
     colour_fit: bool = True
     colour_fit_method: str = "adaptive"    # "adaptive" (ridge ladder), "lsq" or "mk" (mean/covariance transfer)
+    clear_px: int = 4                      # in-paint real objects (+ this margin) before compositing; 0 = off
     scale_grid: tuple = SCALE_GRID
     coverage_target: float = TARGET
     coverage_stride: int = 1
@@ -249,6 +250,7 @@ def build_report(inputs: dict, opts: SynthOptions, models_state: dict, acc: Repo
                                 "adaptive = ridge towards a per-channel gain, the most regularised fit "
                                 "(lambda in 1, .3, .1, .03, .01, 0) reaching half the dE reduction of plain "
                                 "least squares"},
+        "clear_px": opts.clear_px,
         "scale_grid": list(opts.scale_grid),
         "coverage_target": opts.coverage_target,
         "coverage_stride": opts.coverage_stride,
@@ -308,7 +310,8 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
     # ---- an existing output fixes its settings and models: resume/extend only with the same ones
     run_file = state_dir / "run.json"
     settings = {"seed": int(opts.seed), "render": opts.render_settings(), "noise": opts.noise.to_dict(),
-                "colour_fit": [opts.colour_fit, opts.colour_fit_method], "layout": layout, "split": split,
+                "colour_fit": [opts.colour_fit, opts.colour_fit_method], "clear_px": opts.clear_px,
+                "layout": layout, "split": split,
                 "dataset": inputs["dataset"], "poses": inputs["poses"]}
     prev = read_json(run_file, "synth run state") if run_file.is_file() else None
     if prev is not None and json.loads(json.dumps(settings)) != prev["settings"]:
@@ -361,7 +364,7 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
                                  "centres_mm": {str(k): np.asarray(c).tolist() for k, c in sorted(all_centres.items())}})
     config = {"split_dir": str(split_dir), "seed": int(opts.seed), "render": opts.render_settings(),
               "noise": opts.noise.to_dict(), "colour_fit": opts.colour_fit,
-              "colour_fit_method": opts.colour_fit_method,
+              "colour_fit_method": opts.colour_fit_method, "clear_px": int(opts.clear_px),
               "meshes": {f"obj_{o:06d}": {"path": str((models_dir / f"obj_{o:06d}.ply").resolve())}
                          for o in obj_ids}}
     # ---- frames

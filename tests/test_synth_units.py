@@ -177,3 +177,25 @@ def test_bop_input_with_nan_pose_skips_only_that_frame(tmp_path):
     assert [f.im_id for f in scene.frames] == [1]
     assert [i for i, _ in skipped] == [2, 3]
     assert "NaN" in skipped[0][1] and "behind" in skipped[1][1]
+
+
+def test_clear_objects_removes_a_misannotated_rim():
+    """A real object 3 px wider than its annotation leaves a rim outside the render; in-painting the
+    objects (+4 px) from the background must remove it (rim colour distance to background < 10 %)."""
+    from ycbvss.synth.composite import clear_objects
+    H, W = 80, 100
+    img = np.full((H, W, 3), (60, 60, 60), np.uint8)
+    img[20:60, 27:70] = (230, 200, 20)            # the real (yellow) object, 3 px wider on the left
+    label = np.zeros((H, W), bool)
+    label[20:60, 30:70] = True                    # its annotation
+    render = label.copy()
+    rim = np.zeros((H, W), bool)
+    rim[20:60, 27:30] = True
+    before = np.abs(img[rim].astype(float) - 60).mean()
+    out = clear_objects(img, [label], render, clear_px=4)
+    after = np.abs(out[rim].astype(float) - 60).mean()
+    assert before > 80 and after < 0.1 * before, (before, after)
+    far = np.zeros((H, W), bool)
+    far[:, 85:] = True
+    assert np.array_equal(out[far], img[far])     # background away from objects untouched
+    assert clear_objects(img, [label], render, clear_px=0) is img
