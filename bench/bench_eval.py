@@ -7,8 +7,9 @@ random GT poses in front of the camera and estimates perturbed by an error regim
   tracker  t ~ N(0, 10 mm) per axis (tz x2), R ~ 3 deg
   mixed    half refined, half tracker, 5 % of all gross (t ~ 80 mm, R ~ 30 deg)
 Vectorised: ycbvss.eval.metrics.pose_errors with one ModelPoints index per object (its build
-time included; --backend numba = compiled kernel, scipy = BLAS candidates + cKDTree). Reference: ycbvss.eval.reference.errors_loop (transform per pose, one cKDTree per
-pose on the estimate-posed points, as bop_toolkit's adi) on a stratified subset of --ref-n pairs,
+time included; --backend numba = compiled kernel, scipy = BLAS candidates + cKDTree).
+Reference: ycbvss.eval.reference.errors_loop (transform per pose, one cKDTree per pose on the
+estimate-posed points, as bop_toolkit's adi) on a stratified subset of --ref-n pairs,
 extrapolated linearly to --n. Checks max |difference| <= 1e-6 on the subset. Peak memory:
 ru_maxrss of the process (includes the interpreter and all data).
 
