@@ -68,14 +68,9 @@ class GtArrays:
         """GT of a BOP split from scene_gt.json + scene_camera.json only (no images read)."""
         from pathlib import Path
 
-        from ..io.bop import list_scene_ids, read_scene_camera, read_scene_gt
+        from ..io.bop import read_scene_camera, read_scene_gt, select_scene_ids
         split_dir = Path(root) / split
-        all_ids = list_scene_ids(split_dir)
-        if scene_ids is not None:
-            missing = [s for s in scene_ids if s not in all_ids]
-            if missing:
-                raise YcbvssError(f"scene {missing[0]} not found", split_dir / f"{missing[0]:06d}")
-            all_ids = [int(s) for s in scene_ids]
+        all_ids = select_scene_ids(split_dir, scene_ids)
         rows, Rs, ts, Ks = [], [], [], []
         known = None if models is None else models.keys()
         for sid in progress(all_ids, desc="read GT", unit="scene"):

@@ -336,6 +336,18 @@ def load_bop_scene(split_dir: str | Path, scene_id: int, models: dict[int, Objec
     return Scene(scene_id=scene_id, frames=frames, root=sdir)
 
 
+def select_scene_ids(split_dir: str | Path, scene_ids: Sequence[int] | None = None) -> list[int]:
+    """The scene ids of a split folder, or the requested ones (error naming the first missing one)."""
+    split_dir = Path(split_dir)
+    all_ids = list_scene_ids(split_dir)
+    if scene_ids is None:
+        return all_ids
+    missing = [s for s in scene_ids if s not in all_ids]
+    if missing:
+        raise YcbvssError(f"scene {missing[0]} not found", split_dir / f"{missing[0]:06d}")
+    return [int(s) for s in scene_ids]
+
+
 def load_dataset(root: str | Path, split: str, models_subdir: str = "models",
                  scene_ids: Sequence[int] | None = None, symmetric_obj_ids: Iterable[int] = (13,)) -> Dataset:
     """A BOP dataset split as a streaming Dataset (scenes loaded one at a time)."""
@@ -344,12 +356,7 @@ def load_dataset(root: str | Path, split: str, models_subdir: str = "models",
         raise YcbvssError("BOP dataset root not found", root)
     models = load_models(root / models_subdir, symmetric_obj_ids)
     split_dir = root / split
-    all_ids = list_scene_ids(split_dir)
-    if scene_ids is not None:
-        missing = [s for s in scene_ids if s not in all_ids]
-        if missing:
-            raise YcbvssError(f"scene {missing[0]} not found", split_dir / f"{missing[0]:06d}")
-        all_ids = [int(s) for s in scene_ids]
+    all_ids = select_scene_ids(split_dir, scene_ids)
     return Dataset(root, models, all_ids, lambda s: load_bop_scene(split_dir, s, models),
                    name=root.name, split=split)
 
