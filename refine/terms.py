@@ -15,6 +15,8 @@ evaluated with the same samples (model points, matches) for step acceptance.
 """
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -124,8 +126,51 @@ class PointGroup:
     x: np.ndarray    # (N, 2) matched pixels in view i
 
 
+class _RobustReprojectionTerm(ABC):
+    """Shared robust (||r||^rho, IRLS) reprojection cost of matched pixels; subclasses say how a
+    group's points project (``_project``) and which parameter blocks the Jacobians belong to
+    (``_linear``)."""
+
+    groups: list
+    weight: float
+    rho: float
+    floor_px: float
+    cap_px: float
+
+    @abstractmethod
+    def _project(self, pb: BundleProblem, gr) -> tuple[np.ndarray, np.ndarray]:
+        """(uv (N, 2), valid (N,)) of the group's points at the current poses."""
+
+    @abstractmethod
+    def _linear(self, pb: BundleProblem, gr) -> tuple[np.ndarray, int, int, np.ndarray, np.ndarray, np.ndarray]:
+        """(uv, block_a, block_b, J_a (N, 2, 6), J_b (N, 2, 6), valid) of the group."""
+
+    def cost(self, pb: BundleProblem) -> float:
+        tot = 0.0
+        for gr in self.groups:
+            uv, valid = self._project(pb, gr)
+            r = np.where(valid[:, None], gr.x - uv, 1e6)
+            tot += robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)[0].sum()
+        return self.weight * float(tot)
+
+    def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
+        total, out = 0.0, []
+        for gr in self.groups:
+            uv, ba, bb, Ja, Jb, valid = self._linear(pb, gr)
+            r = np.where(valid[:, None], gr.x - uv, 1e6)
+            c, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
+            total += float(c.sum())
+            ok = inl & valid
+            if not ok.any():
+                continue
+            A = (w[ok] * self.weight)[:, None, None] * np.eye(2)[None]
+            g = -(w[ok] * self.weight)[:, None] * r[ok]
+            out.append(Linearization(ba, bb, Ja[ok], Jb[ok], A, g))
+        return self.weight * total, out
+
+
 @dataclass
-class PointTerm:
+class PointTerm(_RobustReprojectionTerm):
     """Robust 3D-2D reprojection cost (||.||^rho) of flow matches."""
 
     groups: list[PointGroup] = field(default_factory=list)
@@ -138,32 +183,12 @@ class PointTerm:
     def n_obs(self) -> int:
         return int(2 * sum(len(gr.X) for gr in self.groups))
 
-    def _res(self, pb: BundleProblem, gr: PointGroup):
+    def _project(self, pb: BundleProblem, gr: PointGroup):
+        return project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
+
+    def _linear(self, pb: BundleProblem, gr: PointGroup):
         uv, Jc, Jo, valid = object_point_jacobians(pb.views[gr.i].K, pb.T_c[gr.i], pb.T_m[gr.j], gr.X)
-        r = np.where(valid[:, None], gr.x - uv, 1e6)
-        return r, Jc, Jo, valid
-
-    def cost(self, pb: BundleProblem) -> float:
-        tot = 0.0
-        for gr in self.groups:
-            uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
-            r = np.where(valid[:, None], gr.x - uv, 1e6)
-            tot += robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)[0].sum()
-        return self.weight * float(tot)
-
-    def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
-        total, out = 0.0, []
-        for gr in self.groups:
-            r, Jc, Jo, valid = self._res(pb, gr)
-            c, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
-            total += float(c.sum())
-            ok = inl & valid
-            if not ok.any():
-                continue
-            A = (w[ok] * self.weight)[:, None, None] * np.eye(2)[None]
-            g = -(w[ok] * self.weight)[:, None] * r[ok]
-            out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j]), Jc[ok], Jo[ok], A, g))
-        return self.weight * total, out
+        return uv, int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j]), Jc, Jo, valid
 
 
 @dataclass
@@ -175,7 +200,7 @@ class TemporalGroup:
 
 
 @dataclass
-class TemporalTerm:
+class TemporalTerm(_RobustReprojectionTerm):
     """Robust two-view transfer cost between neighbouring views (cameras only)."""
 
     groups: list[TemporalGroup] = field(default_factory=list)
@@ -188,29 +213,9 @@ class TemporalTerm:
     def n_obs(self) -> int:
         return int(2 * sum(len(gr.x) for gr in self.groups))
 
-    def _res(self, pb: BundleProblem, gr: TemporalGroup):
+    def _project(self, pb: BundleProblem, gr: TemporalGroup):
+        return project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ inv_T(pb.T_c[gr.k]), gr.Y_k)
+
+    def _linear(self, pb: BundleProblem, gr: TemporalGroup):
         uv, Ji, Jk, valid = transfer_point_jacobians(pb.views[gr.i].K, pb.T_c[gr.i], pb.T_c[gr.k], gr.Y_k)
-        r = np.where(valid[:, None], gr.x - uv, 1e6)
-        return r, Ji, Jk, valid
-
-    def cost(self, pb: BundleProblem) -> float:
-        tot = 0.0
-        for gr in self.groups:
-            uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ inv_T(pb.T_c[gr.k]), gr.Y_k)
-            r = np.where(valid[:, None], gr.x - uv, 1e6)
-            tot += robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)[0].sum()
-        return self.weight * float(tot)
-
-    def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
-        total, out = 0.0, []
-        for gr in self.groups:
-            r, Ji, Jk, valid = self._res(pb, gr)
-            c, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
-            total += float(c.sum())
-            ok = inl & valid
-            if not ok.any():
-                continue
-            A = (w[ok] * self.weight)[:, None, None] * np.eye(2)[None]
-            g = -(w[ok] * self.weight)[:, None] * r[ok]
-            out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.cam_block[gr.k]), Ji[ok], Jk[ok], A, g))
-        return self.weight * total, out
+        return uv, int(pb.cam_block[gr.i]), int(pb.cam_block[gr.k]), Ji, Jk, valid
