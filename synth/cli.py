@@ -4,19 +4,9 @@ from __future__ import annotations
 import argparse
 
 
-def _scenes(text: str | None):
-    if text is None:
-        return None
-    out = []
-    for part in text.replace(" ", ",").split(","):
-        if not part:
-            continue
-        if "-" in part:
-            a, b = part.split("-", 1)
-            out += list(range(int(a), int(b) + 1))
-        else:
-            out.append(int(part))
-    return out
+def _scenes(text: str | None, what: str = "scene list"):
+    from ..io.ycbv import parse_videos
+    return parse_videos(text, what)
 
 
 def register(sub) -> None:
@@ -74,7 +64,7 @@ def _handler(args: argparse.Namespace) -> int:
                         colour_fit=not args.no_colour_fit, colour_fit_method=args.colour_fit_method,
                         clear_px=args.clear_px,
                         coverage_stride=args.coverage_stride, max_frames=args.max_frames,
-                        frames=_scenes(args.frames), workers=args.workers, executor=args.executor,
+                        frames=_scenes(args.frames, "frame list"), workers=args.workers, executor=args.executor,
                         address=args.address, chunk=args.chunk,
                         scales={int(k): float(v) for k, v in (kv.split(":") for kv in args.scales.split(","))}
                         if args.scales else None)

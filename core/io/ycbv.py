@@ -60,14 +60,16 @@ def list_frames(root: str | Path, video: int) -> list[int]:
     return sorted(int(m.group(1)) for p in d.iterdir() if (m := _FRAME_RE.match(p.name)))
 
 
-def parse_videos(spec: str | Iterable[int] | None) -> list[int] | None:
-    """'0000,0001' / '0-3,7' / [0, 1] / None -> sorted list of video numbers (None = all)."""
+def parse_videos(spec: str | Iterable[int] | None, what: str = "video list") -> list[int] | None:
+    """'0000,0001' / '0-3,7' / '1 2' / [0, 1] / None -> sorted list of ids (None = all).
+
+    Used for video, scene and frame lists; ``what`` names the list in the error message."""
     if spec is None:
         return None
     if not isinstance(spec, str):
         return sorted({int(v) for v in spec})
     out: set[int] = set()
-    for part in spec.replace(" ", "").split(","):
+    for part in spec.replace(" ", ",").split(","):
         if not part:
             continue
         try:
@@ -77,7 +79,7 @@ def parse_videos(spec: str | Iterable[int] | None) -> list[int] | None:
             else:
                 out.add(int(part))
         except ValueError:
-            raise YcbvssError(f"bad video list {spec!r} (expected e.g. 0000,0001 or 0-59)") from None
+            raise YcbvssError(f"bad {what} {spec!r} (expected e.g. 0000,0001 or 0-59)") from None
     return sorted(out)
 
 
