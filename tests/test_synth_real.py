@@ -64,15 +64,20 @@ def test_coverage_at_least_99_5_percent(synth_out):
         assert o["coverage_after"] >= o["coverage_before"]
 
 
-def test_mask_visib_equals_fast_renderer_silhouette(synth_out):
+def _renderer_with_models(ds):
     from ycbvss.render import Renderer
-    out, _ = synth_out
-    ds, frames = _frames(out)
     r = Renderer()
     for oid, m in ds.models.items():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             r.add_mesh(oid, m.mesh)
+    return r
+
+
+def test_mask_visib_equals_fast_renderer_silhouette(synth_out):
+    out, _ = synth_out
+    ds, frames = _frames(out)
+    r = _renderer_with_models(ds)
     ious = []
     for f in frames:
         inst = r.render(f.camera.K, 640, 480, [(i.obj_id, i.T_m2c) for i in f.instances]).instance
@@ -85,14 +90,9 @@ def test_mask_visib_equals_fast_renderer_silhouette(synth_out):
 
 
 def test_rendered_depth_agrees_with_gt_pose(synth_out):
-    from ycbvss.render import Renderer
     out, _ = synth_out
     ds, frames = _frames(out)
-    r = Renderer()
-    for oid, m in ds.models.items():
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            r.add_mesh(oid, m.mesh)
+    r = _renderer_with_models(ds)
     dz = []
     for f in frames:
         ren = r.render(f.camera.K, 640, 480, [(i.obj_id, i.T_m2c) for i in f.instances])
