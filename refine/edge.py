@@ -243,15 +243,24 @@ def subsample(n_max: int, n: int, rng: np.random.Generator) -> np.ndarray:
     return np.sort(np.argpartition(rng.random(n), n_max)[:n_max])
 
 
-def all_contour_points(inst: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,)."""
+def _labels_box(inst: np.ndarray, margin_px: int) -> tuple[int, int, int, int] | None:
+    """(y0, x0, y1, x1) of all labelled pixels grown by ``margin_px`` and clipped to the image
+    (end exclusive); None when nothing is labelled."""
     H, W = inst.shape
     m = inst > 0
     if not m.any():
-        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
+        return None
     ys, xs = np.nonzero(m.any(axis=1))[0], np.nonzero(m.any(axis=0))[0]
-    y0, x0 = max(ys[0] - 1, 0), max(xs[0] - 1, 0)
-    y1, x1 = min(ys[-1] + 2, H), min(xs[-1] + 2, W)
+    return (max(ys[0] - margin_px, 0), max(xs[0] - margin_px, 0),
+            min(ys[-1] + margin_px + 1, H), min(xs[-1] + margin_px + 1, W))
+
+
+def all_contour_points(inst: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,)."""
+    box = _labels_box(inst, 1)
+    if box is None:
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
+    y0, x0, y1, x1 = box
     ic, dc = inst[y0:y1, x0:x1], depth[y0:y1, x0:x1]
     h, w = ic.shape
     pad_i = np.pad(ic, 1, constant_values=-1)
@@ -269,9 +278,9 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray,
         is_c[0, :] = False
     if x0 == 0:
         is_c[:, 0] = False
-    if y1 == H:
+    if y1 == inst.shape[0]:
         is_c[-1, :] = False
-    if x1 == W:
+    if x1 == inst.shape[1]:
         is_c[:, -1] = False
     v, u = np.nonzero(is_c)
     d = dirs[v, u]
@@ -285,13 +294,10 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
                         canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,)."""
-    H, W = inst.shape
-    m = inst > 0
-    if not m.any():
+    box = _labels_box(inst, 2)
+    if box is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
-    ys, xs = np.nonzero(m.any(axis=1))[0], np.nonzero(m.any(axis=0))[0]
-    y0, x0 = max(ys[0] - 2, 0), max(xs[0] - 2, 0)
-    y1, x1 = min(ys[-1] + 3, H), min(xs[-1] + 3, W)
+    y0, x0, y1, x1 = box
     ic = inst[y0:y1, x0:x1]
     lab = ic.astype(np.float32)
     k = np.ones((2 * erode_px + 1, 2 * erode_px + 1), np.uint8)
