@@ -65,6 +65,8 @@ def main() -> None:
     ap.add_argument("--arc", type=float, default=40.0)
     ap.add_argument("--seeds", type=int, nargs="+", default=[1])
     ap.add_argument("--accuracy", action="store_true")
+    ap.add_argument("--no-ablation", action="store_true", help="with --accuracy: skip the three ablation runs")
+    ap.add_argument("--from-gt", action="store_true", help="start from the exact ground truth (bias check)")
     ap.add_argument("--opt", nargs="*", default=[], help="RefineOptions overrides, e.g. alpha=5 max_iters=4")
     args = ap.parse_args()
     os.environ.setdefault("YCBVSS_NO_PROGRESS", "1")
@@ -75,7 +77,7 @@ def main() -> None:
 
     over = {k: eval(v) for k, v in (a.split("=", 1) for a in args.opt)}
     configs = {"using all": RefineOptions(**over)}
-    if args.accuracy:
+    if args.accuracy and not args.no_ablation:
         configs.update({"w/o f_edge": RefineOptions(**{**over, "use_edge": False}),
                         "w/o f_point": RefineOptions(**{**over, "use_point": False}),
                         "w/o f_t": RefineOptions(**{**over, "use_temporal": False})})
@@ -83,6 +85,8 @@ def main() -> None:
     per_obj: dict[str, dict] = {}
     for seed in args.seeds:
         ps, imgs, gt, init = make(seed, args.frames, args.width, args.arc)
+        if args.from_gt:
+            init = dict(gt)
         names = {o: m.name for o, m in ps.models.items()}
         agg["init (per view)"].append(errors(ps, init, gt))
         for cname, opt in configs.items():

@@ -48,11 +48,16 @@ class RefineOptions:
     max_iters: int = 5
     coarse_iters: int = 3
     inner_iters: int = 4
-    edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px scaled by image width / 640 (>= 1)
+    edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px (one image: (4, 2, 1)) scaled by width / 640 (>= 1)
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
     edge_norm_percentile: float = 100.0
+    edge_linear_light: bool = False   # edge field from linear-light luminance (sRGB decoded)
+    edge_interp: str = "cubic"        # "cubic" (Catmull-Rom) or "linear" sampling of the edge field
+    edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
+    crease_band_px: int = 0           # drop crease samples with another edge 2..N px across them (0: keep all)
+    max_extrapolate: int = 3          # line search: up to N doublings of an accepted Newton step
     n_matches: int = 1000
     match_erode_px: int = 6
     flow_margin_px: int = 24
@@ -148,7 +153,9 @@ class _Stage:
             for i, vr in renders.items():
                 if not any((i, j) in vis for j in vr.obj_index):
                     continue
-                for j, X in view_edge_samples(vr, pb.views[i].K, opt.n_edge_points, self.rng).items():
+                for j, X in view_edge_samples(vr, pb.views[i].K, opt.n_edge_points, self.rng,
+                                                   creases=opt.edge_creases,
+                                                   crease_band_px=opt.crease_band_px).items():
                     if (i, j) in vis and len(X):
                         groups.append(EdgeGroup(i, j, X))
             sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
@@ -223,13 +230,14 @@ class _Stage:
     def run(self, sigmas) -> list:
         pb, opt = self.pb, self.opt
         terms = []
-        sopt = SolverOptions(max_iters=opt.inner_iters)
+        sopt = SolverOptions(max_iters=opt.inner_iters, max_extrapolate=opt.max_extrapolate)
         lam = None
         n_built = 0
         for li, sigma in enumerate(sigmas):
             n_outer = opt.max_iters if li == len(sigmas) - 1 else min(opt.coarse_iters, opt.max_iters)
             t0 = time.perf_counter()
-            fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile) for i in self.term_views}
+            fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_linear_light,
+                                  opt.edge_interp) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
             for outer in range(n_outer):
                 renders = {i: self.render(i) for i in self.term_views}
@@ -375,7 +383,11 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     pb.obj_known = known
     stage = _Stage(pb, models, opt, log, stats, list(range(len(kf))),
                    _pairs(list(range(len(kf))), opt.temporal_neighbours) if len(kf) > 1 else [], "keyframes")
-    terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas((8.0, 4.0, 2.0, 1.0), views[0].width))
+    # one image: depth is seen only through the apparent size, and the coarsest blur (which merges
+    # neighbouring edges and so shifts the apparent size) pulls it away with no second view to
+    # pull it back -- start one level finer
+    base = (8.0, 4.0, 2.0, 1.0) if len(kf) > 1 else (4.0, 2.0, 1.0)
+    terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
     converged = stage.converged
     visible = {(views[kf[i]].im_id, obj_ids[j]) for (i, j) in stage.visible}
     cov_kf = covariance(pb, terms_kf) if (opt.compute_uncertainty and terms_kf) else None

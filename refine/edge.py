@@ -24,10 +24,16 @@ def to_gray_f32(image: np.ndarray) -> np.ndarray:
 
 @dataclass
 class EdgeField:
-    """E and its derivatives stacked (H, W, 6): E, Eu, Ev, Euu, Euv, Evv (u = column, v = row)."""
+    """E and its derivatives stacked (H, W, 6): E, Eu, Ev, Euu, Euv, Evv (u = column, v = row).
+
+    ``interp`` = "cubic" (default): E is read through Catmull-Rom bicubic interpolation, whose
+    minima can lie anywhere between pixel centres; "linear": bilinear, whose minima sit on pixel
+    centres (a contour that lies half-way between two pixels then snaps to whichever of them has the
+    stronger gradient -- a systematic 0.5 px shrink or growth when the object's rim is shaded)."""
 
     data: np.ndarray
     sigma_px: float
+    interp: str = "cubic"
 
     @property
     def E(self) -> np.ndarray:
@@ -46,14 +52,31 @@ def gradient_magnitude(gray: np.ndarray, sigma_px: float) -> np.ndarray:
     return np.sqrt(gx * gx + gy * gy)
 
 
-def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float = 100.0) -> EdgeField:
+def srgb_to_linear_gray(image: np.ndarray) -> np.ndarray:
+    """sRGB uint8 (H, W, 3) or gray (H, W) -> linear-light luminance float32 in [0, 255]."""
+    img = np.asarray(image).astype(np.float32) / 255.0
+    lin = np.where(img <= 0.04045, img / 12.92, ((img + 0.055) / 1.055) ** 2.4)
+    if lin.ndim == 3:
+        lin = lin[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    return (255.0 * lin).astype(np.float32)
+
+
+def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float = 100.0,
+               linear_light: bool = False, interp: str = "cubic") -> EdgeField:
     """Edge field of an image (RGB or gray) at blur ``sigma_px``.
+
+    ``linear_light``: take the gradient of the linear-light luminance (sRGB decoded) instead of the
+    gamma-encoded grey value. A camera integrates light linearly, so an anti-aliased or blurred
+    silhouette crosses 50 % coverage at the true boundary in linear light; the sRGB curve moves
+    the gradient maximum towards the darker side (about 0.1-0.2 px at sigma = 1 px), which biases
+    the contour term in depth.
 
     ``norm_percentile`` = 100 is the paper's normalisation by the maximum gradient; a lower
     percentile (robust maximum, values above it clip to E = 0) keeps one very strong edge from
     flattening all others. A uniform image (max gradient 0) gives E = 1 everywhere and zero
     derivatives (no pull)."""
-    mag = gradient_magnitude(to_gray_f32(image), sigma_px)
+    gray = srgb_to_linear_gray(image) if linear_light else to_gray_f32(image)
+    mag = gradient_magnitude(gray, sigma_px)
     mx = float(mag.max()) if norm_percentile >= 100 else float(np.percentile(mag, norm_percentile))
     if mx <= 1e-6:
         mx = float(mag.max())
@@ -62,7 +85,7 @@ def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float 
     Euv, Euu = np.gradient(Eu)
     Evv, _ = np.gradient(Ev)
     data = np.stack([E, Eu, Ev, Euu, Euv, Evv], axis=-1).astype(np.float32)
-    return EdgeField(data, float(sigma_px))
+    return EdgeField(data, float(sigma_px), interp)
 
 
 def sample_bilinear(data: np.ndarray, uv: np.ndarray, outside: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -87,28 +110,82 @@ def sample_bilinear(data: np.ndarray, uv: np.ndarray, outside: np.ndarray | None
     return out, inside
 
 
+def _catmull_rom(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Catmull-Rom weights (N, 4) for taps -1, 0, 1, 2 at fractional positions t (N,) and their derivatives."""
+    t2, t3 = t * t, t * t * t
+    w = np.stack([0.5 * (-t3 + 2 * t2 - t), 0.5 * (3 * t3 - 5 * t2 + 2),
+                  0.5 * (-3 * t3 + 4 * t2 + t), 0.5 * (t3 - t2)], 1)
+    dw = np.stack([0.5 * (-3 * t2 + 4 * t - 1), 0.5 * (9 * t2 - 10 * t),
+                   0.5 * (-9 * t2 + 8 * t + 1), 0.5 * (3 * t2 - 2 * t)], 1)
+    return w, dw
+
+
+def _sample_cubic(E: np.ndarray, u: np.ndarray, v: np.ndarray, with_grad: bool
+                  ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Catmull-Rom bicubic value (N,) and exact gradient (N, 2) of E at in-image points (taps clamped)."""
+    H, W = E.shape
+    u0 = np.floor(u).astype(int)
+    v0 = np.floor(v).astype(int)
+    wu, dwu = _catmull_rom(u - u0)
+    wv, dwv = _catmull_rom(v - v0)
+    cu = np.clip(u0[:, None] + np.arange(-1, 3)[None], 0, W - 1)      # (N, 4)
+    cv = np.clip(v0[:, None] + np.arange(-1, 3)[None], 0, H - 1)
+    P = E[cv[:, :, None], cu[:, None, :]].astype(np.float64)           # (N, 4 rows, 4 cols)
+    row = np.einsum("nrc,nc->nr", P, wu)                               # interpolated along u
+    val = np.einsum("nr,nr->n", row, wv)
+    if not with_grad:
+        return val, None
+    gu = np.einsum("nr,nr->n", np.einsum("nrc,nc->nr", P, dwu), wv)
+    gv = np.einsum("nr,nr->n", row, dwv)
+    return val, np.stack([gu, gv], 1)
+
+
+def _inside(shape: tuple[int, int], uv: np.ndarray) -> np.ndarray:
+    H, W = shape
+    u, v = uv[:, 0], uv[:, 1]
+    return np.isfinite(u) & np.isfinite(v) & (u >= 0) & (v >= 0) & (u <= W - 1) & (v <= H - 1)
+
+
+def sample_E(field: EdgeField, uv: np.ndarray) -> np.ndarray:
+    """E at uv (N, 2) with the field's interpolation (1 outside the image)."""
+    uv = np.asarray(uv, dtype=np.float64)
+    if field.interp != "cubic":
+        return sample_bilinear(field.data[..., :1], uv, outside=np.ones(1))[0][:, 0]
+    out = np.ones(len(uv))
+    ins = _inside(field.shape, uv)
+    if ins.any():
+        out[ins] = _sample_cubic(field.data[..., 0], uv[ins, 0], uv[ins, 1], False)[0]
+    return out
+
+
 def sample_field(field: EdgeField, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """E (N,), gradient (N, 2), Hessian (N, 2, 2) and inside (N,) of the field at uv (N, 2).
 
-    E is bilinearly interpolated and the gradient is the exact derivative of that interpolant (so
-    it is consistent with the cost the solver evaluates); the Hessian is the bilinear
-    interpolation of the central-difference second derivatives (it only scales the step)."""
+    E is interpolated (bicubic or bilinear, see :class:`EdgeField`) and the gradient is the exact
+    derivative of that interpolant (so it is consistent with the cost the solver evaluates); the
+    Hessian is the bilinear interpolation of the central-difference second derivatives (it only
+    scales the step)."""
+    uv = np.asarray(uv, dtype=np.float64)
     vals, inside = sample_bilinear(field.data, uv, outside=np.array([1, 0, 0, 0, 0, 0], float))
     grad = np.zeros((len(uv), 2))
+    E_out = vals[:, 0].copy()
     if np.any(inside):
         E = field.data[..., 0]
         H_, W_ = E.shape
         u, v = uv[inside, 0], uv[inside, 1]
-        u0 = np.clip(np.floor(u).astype(int), 0, max(W_ - 2, 0))
-        v0 = np.clip(np.floor(v).astype(int), 0, max(H_ - 2, 0))
-        u1, v1 = np.minimum(u0 + 1, W_ - 1), np.minimum(v0 + 1, H_ - 1)
-        a, b = u - u0, v - v0
-        e00, e01, e10, e11 = E[v0, u0], E[v0, u1], E[v1, u0], E[v1, u1]
-        grad[inside, 0] = (1 - b) * (e01 - e00) + b * (e11 - e10)
-        grad[inside, 1] = (1 - a) * (e10 - e00) + a * (e11 - e01)
+        if field.interp == "cubic":
+            E_out[inside], grad[inside] = _sample_cubic(E, u, v, True)
+        else:
+            u0 = np.clip(np.floor(u).astype(int), 0, max(W_ - 2, 0))
+            v0 = np.clip(np.floor(v).astype(int), 0, max(H_ - 2, 0))
+            u1, v1 = np.minimum(u0 + 1, W_ - 1), np.minimum(v0 + 1, H_ - 1)
+            a, b = u - u0, v - v0
+            e00, e01, e10, e11 = E[v0, u0], E[v0, u1], E[v1, u0], E[v1, u1]
+            grad[inside, 0] = (1 - b) * (e01 - e00) + b * (e11 - e10)
+            grad[inside, 1] = (1 - a) * (e10 - e00) + a * (e11 - e01)
     H = np.empty((len(uv), 2, 2))
     H[:, 0, 0], H[:, 0, 1], H[:, 1, 0], H[:, 1, 1] = vals[:, 3], vals[:, 4], vals[:, 4], vals[:, 5]
-    return vals[:, 0], grad, H, inside
+    return E_out, grad, H, inside
 
 
 # ---------------------------------------------------------------- template edge points
@@ -164,15 +241,23 @@ def _contour_points(inst, depth, label, full_shape, origin):
 
 
 def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 25.0,
-                 depth_jump_rel: float = 0.03, inst: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 depth_jump_rel: float = 0.03, inst: np.ndarray | None = None,
+                 band_px: int = 0, other_edges: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Geometric edges of a rendered template (H, W) bool: the normal turns by more than
     ``min_angle_deg`` or the depth jumps (self-occlusion) towards the right/lower neighbour; the
     edge is marked on the nearer pixel with an offset (H, W, 2) of half a pixel towards the other
     one (the edge lies between the pixel centres). These are the shading/crease edges a photo
-    shows even on textureless objects (box edges, a mug's rim)."""
+    shows even on textureless objects (box edges, a mug's rim).
+
+    ``band_px`` > 0 drops crease pixels that have another geometric edge (a crease of another
+    fold line, a silhouette or object boundary, or a pixel of ``other_edges``) at 2..band_px px
+    across the crease (along the axis on which it was detected): two fold lines that close (a
+    mug's 2 px rim, a box face seen at a grazing angle) merge into one blurred image edge, and
+    pulling both onto it tilts the object."""
     H, W = depth.shape
     out = np.zeros((H, W), bool)
     off = np.zeros((H, W, 2), np.float32)
+    axis = np.zeros((H, W, 2), bool)          # detected across u (columns) / across v (rows)
     c = np.cos(np.radians(min_angle_deg))
     for dv, du in ((0, 1), (1, 0)):
         n0, n1 = normal[: H - dv, : W - du], normal[dv:, du:]
@@ -187,6 +272,30 @@ def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 2
         out[dv:, du:] |= b
         off[: H - dv, : W - du][a] = (0.5 * du, 0.5 * dv)
         off[dv:, du:][b] = (-0.5 * du, -0.5 * dv)
+        k = 0 if du else 1
+        axis[: H - dv, : W - du, k] |= a
+        axis[dv:, du:, k] |= b
+    if band_px >= 2 and out.any():
+        geo = out.copy()
+        if inst is not None:                     # object boundaries (silhouettes, occlusions)
+            bnd = np.zeros((H, W), bool)
+            bnd[:, :-1] |= inst[:, :-1] != inst[:, 1:]
+            bnd[:, 1:] |= inst[:, :-1] != inst[:, 1:]
+            bnd[:-1] |= inst[:-1] != inst[1:]
+            bnd[1:] |= inst[:-1] != inst[1:]
+            geo |= bnd
+        if other_edges is not None:
+            geo |= other_edges
+        near = np.zeros((H, W), bool)
+        pad = np.pad(geo, band_px)
+        for k, (su, sv) in enumerate(((1, 0), (0, 1))):
+            hit = np.zeros((H, W), bool)
+            for dist in range(2, band_px + 1):
+                for sgn in (-1, 1):
+                    y0, x0 = band_px + sgn * dist * sv, band_px + sgn * dist * su
+                    hit |= pad[y0:y0 + H, x0:x0 + W]
+            near |= axis[..., k] & hit
+        out &= ~near
     return out, off
 
 
@@ -255,11 +364,13 @@ def _labels_box(inst: np.ndarray, margin_px: int) -> tuple[int, int, int, int] |
             min(ys[-1] + margin_px + 1, H), min(xs[-1] + margin_px + 1, W))
 
 
-def all_contour_points(inst: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,)."""
+def all_contour_points(inst: np.ndarray, depth: np.ndarray, return_normals: bool = False):
+    """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,) and, with
+    ``return_normals``, the outward unit normals (N, 2)."""
     box = _labels_box(inst, 1)
     if box is None:
-        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
+        e = (np.zeros((0, 2)), np.zeros(0), np.zeros(0, int))
+        return e + (np.zeros((0, 2)),) if return_normals else e
     y0, x0, y1, x1 = box
     ic, dc = inst[y0:y1, x0:x1], depth[y0:y1, x0:x1]
     h, w = ic.shape
@@ -287,13 +398,42 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray,
     n = np.linalg.norm(d, axis=1, keepdims=True)
     d = np.where(n > 0, d / np.maximum(n, 1e-9), 0.0)
     uv = np.stack([u + x0, v + y0], 1).astype(np.float64) + 0.5 * d
+    if return_normals:
+        return uv, dc[v, u].astype(np.float64), ic[v, u].astype(int), d.astype(np.float64)
     return uv, dc[v, u].astype(np.float64), ic[v, u].astype(int)
 
 
+def relocate_to_edge(gray: np.ndarray, uv: np.ndarray, normal: np.ndarray, sigma_px: float = 1.0,
+                     reach_px: float = 1.5) -> np.ndarray:
+    """Move points uv (N, 2) along their unit normals (N, 2) to the sub-pixel maximum of the
+    gradient magnitude of ``gray`` (blurred by ``sigma_px``) within +-``reach_px``.
+
+    Used on the rendered template composited over the image: a silhouette whose rim the texture
+    shows darker or lighter (or whose background is cluttered) has its strongest gradient off
+    the geometric contour, in the template as in the image; sampling the template's own edge
+    position instead of the geometric one removes that bias from the contour term. Points whose
+    profile has no interior maximum keep their position."""
+    if len(uv) == 0:
+        return uv
+    mag = gradient_magnitude(gray, sigma_px)[..., None]
+    ts = np.arange(-reach_px, reach_px + 1e-9, 0.25)
+    prof = np.stack([sample_bilinear(mag, uv + t * normal)[0][:, 0] for t in ts], 1)
+    k = prof.argmax(1)
+    ok = (k > 0) & (k < len(ts) - 1)
+    kk = np.clip(k, 1, len(ts) - 2)
+    r = np.arange(len(uv))
+    m0, mm, mp = prof[r, kk], prof[r, kk - 1], prof[r, kk + 1]
+    den = mm - 2 * m0 + mp
+    off = np.where(den < -1e-9, 0.5 * (mm - mp) / np.where(den < -1e-9, den, -1.0), 0.0)
+    t = ts[kk] + 0.25 * np.clip(off, -1.0, 1.0)
+    return uv + np.where(ok, t, 0.0)[:, None] * normal
+
+
 def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, normal: np.ndarray | None,
-                        canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2
-                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,)."""
+                        canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2,
+                        crease_band_px: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,).
+    ``normal`` None: no crease edges; ``crease_band_px``: see :func:`crease_edges`."""
     box = _labels_box(inst, 2)
     if box is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
@@ -308,7 +448,8 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     uv = np.stack([u, v], 1).astype(np.float64) + subpixel_offsets(gray, v, u)
     dep, labs = depth[v + y0, u + x0], ic[v, u]
     if normal is not None:
-        ce, off = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1], inst=ic)
+        ce, off = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1], inst=ic, band_px=crease_band_px,
+                               other_edges=edges)
         ce &= inside & ~edges
         v2, u2 = np.nonzero(ce)
         uv = np.concatenate([uv, np.stack([u2, v2], 1) + off[v2, u2]])

@@ -28,6 +28,8 @@ class SolverOptions:
     max_tries: int = 8
     rel_tol: float = 1e-7        # stop when the relative cost decrease is below this
     step_tol: float = 1e-7       # stop when |delta| (mm / rad mix) is below this
+    lambda_restart: float = 1e-2  # cap on the damping a new call starts with
+    max_extrapolate: int = 3     # after an accepted step, try up to this many doublings of it (cost only)
 
 
 def assemble(n_blocks: int, lins: list[Linearization]) -> tuple[sp.csr_matrix, np.ndarray]:
@@ -104,10 +106,38 @@ def linearize_all(pb: BundleProblem, terms) -> tuple[float, dict, list[Lineariza
     return float(sum(per.values())), per, lins
 
 
+def _extrapolate(pb: BundleProblem, terms, delta: np.ndarray, c0: float, c1: float, per1: dict, n_max: int,
+                 min_gain: float = 0.5) -> tuple[float, dict, np.ndarray]:
+    """Line search beyond an accepted step (cost c0 -> c1): apply the step again (doubling the
+    total each time, up to ``n_max`` times) while each extension lowers the cost by at least
+    ``min_gain`` times what the first step gained. The surrogate curvatures of the edge term
+    (PSD-projected, floored) and of the IRLS point terms overestimate the true curvature, so
+    accepted steps are often a fraction of the way to the minimum; then every extension gains
+    about as much as the first step. Along a nearly flat direction (depth in a single view)
+    the extensions gain little and are refused, so noise is not amplified into drift. Costs
+    cost evaluations only."""
+    total = delta.copy()
+    step = delta.copy()
+    gain0 = c0 - c1
+    for _ in range(max(n_max, 0)):
+        st = pb.state()
+        pb.apply_step(step)
+        c2, per2 = total_cost(pb, terms)
+        if not (np.isfinite(c2) and c1 - c2 >= min_gain * gain0 and np.all(np.isfinite(pb.T_c))
+                and np.all(np.isfinite(pb.T_m))):
+            pb.set_state(st)
+            break
+        total += step
+        c1, per1 = c2, per2
+        step = 2.0 * step
+    return c1, per1, total
+
+
 def run_lm(pb: BundleProblem, terms, opt: SolverOptions, log: list | None = None, stage: str = "",
            lam: float | None = None) -> tuple[bool, float]:
     """Run damped Newton iterations on ``pb`` in place. Returns (converged, final lambda)."""
-    lam = opt.lambda0 if lam is None else lam
+    # a damping carried over from an earlier call is capped: the terms were re-sampled since
+    lam = opt.lambda0 if lam is None else min(lam, opt.lambda_restart)
     converged = False
     if pb.n_blocks == 0:
         return True, lam
@@ -124,6 +154,7 @@ def run_lm(pb: BundleProblem, terms, opt: SolverOptions, log: list | None = None
             if np.isfinite(c1) and c1 < c0 and np.all(np.isfinite(pb.T_c)) and np.all(np.isfinite(pb.T_m)):
                 accepted = True
                 lam = max(lam / 3.0, 1e-7)
+                c1, per1, delta = _extrapolate(pb, terms, delta, c0, c1, per1, opt.max_extrapolate)
                 break
             pb.set_state(st)
             lam = min(lam * 4.0, opt.lambda_max)

@@ -21,8 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .edge import EdgeField, sample_field
-from .edge import sample_bilinear
+from .edge import EdgeField, sample_E, sample_field
 from .jacobians import object_point_jacobians, project_points, transfer_point_jacobians
 from ycbvss.geometry.se3 import inv_T
 from .problem import BundleProblem
@@ -86,7 +85,7 @@ class EdgeTerm:
         for gr in self.groups:
             uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
             uv = np.where(valid[:, None], uv, -1e9)
-            E = sample_bilinear(self.fields[gr.i].data[..., :1], uv, outside=np.ones(1))[0][:, 0]
+            E = sample_E(self.fields[gr.i], uv)
             tot += float(np.where(valid, E, 1.0).sum())
         return self.weight * tot
 
@@ -110,11 +109,21 @@ class EdgeTerm:
 
 def robust_cost_weights(r: np.ndarray, rho: float, floor_px: float, cap_px: float
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-match cost min(s, cap)^rho, IRLS weight and inlier mask for residual vectors r (N, 2)."""
+    """Per-match cost, IRLS weight and inlier mask for residual vectors r (N, 2), s = ||r||.
+
+    Cost s^rho for floor <= s < cap, cap^rho beyond (outliers), and below the floor the quadratic
+    that continues s^rho with the same value and slope at s = floor:
+    floor^rho (1 - rho/2) + (rho/2) floor^(rho-2) s^2. So the cost is C1 everywhere (s^rho alone
+    has a cusp at 0 where every step raises the cost of the matches that are already exact) and
+    the IRLS weight w = rho max(s, floor)^(rho-2) gives its exact gradient -w r."""
     s = np.linalg.norm(r, axis=1)
     inl = s < cap_px
     c = np.minimum(s, cap_px) ** rho
-    w = np.where(inl, rho * np.maximum(s, floor_px) ** (rho - 2.0), 0.0)
+    if floor_px > 0:
+        lo = s < floor_px
+        c = np.where(lo, floor_px ** rho * (1.0 - 0.5 * rho) + 0.5 * rho * floor_px ** (rho - 2.0) * s * s, c)
+    with np.errstate(divide="ignore"):
+        w = np.where(inl, rho * np.maximum(s, floor_px) ** (rho - 2.0), 0.0)
     return c, w, inl
 
 

@@ -82,7 +82,10 @@ def test_term_gradients_match_finite_differences():
                                    + rng.normal(scale=3, size=(60, 2)))], rho=0.25, floor_px=0.0),
              TemporalTerm([TemporalGroup(1, 0, X + [0, 0, 600], transfer_point_jacobians(K, pb.T_c[1], pb.T_c[0], X + [0, 0, 600])[0]
                                          + rng.normal(scale=3, size=(60, 2)))], rho=0.25, floor_px=0.0)]
-    for term, h, tol in ((terms[0], 1e-4, 0.1), (terms[1], 1e-6, 1e-3), (terms[2], 1e-6, 1e-3)):
+    # the floored (C1, quadratic below the floor) robust cost: its IRLS gradient is exact too
+    terms.append(PointTerm([PointGroup(1, 0, X, terms[1].groups[0].x)], rho=0.25, floor_px=4.0))
+    for term, h, tol in ((terms[0], 1e-4, 0.1), (terms[1], 1e-6, 1e-3), (terms[2], 1e-6, 1e-3),
+                         (terms[3], 1e-6, 1e-3)):
         _, lins = term.linearize(pb)
         _, g = assemble(pb.n_blocks, lins)
         g_fd = _fd_gradient(pb, term, h)
