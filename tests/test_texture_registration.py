@@ -10,6 +10,8 @@ a 250 px object by ~0.06 px -- the bias that Blender's silently sheared object m
 produced (A_yy -0.044 % at the 50 deg pose with the YCB-V K).
 
 Bounds: every entry of A below 0.01 % (scale and shear), |mean offset| < 0.02 px, mean |offset| < 0.05 px.
+Blender's silhouette is checked too: alpha summed over the image = analytic area of the projected plane,
+i.e. mean boundary offset (area difference / perimeter) below 0.01 px.
 Budget: ~10 s (fast renderer ~2 s; Blender start-up + two 32-spp frames ~6 s).
 """
 from __future__ import annotations
@@ -27,6 +29,7 @@ TEX_PX, CELLS, SIZE_MM = 4096, 16, 120.0
 A_MAX_PCT = 0.01
 MEAN_MAX_PX = 0.02
 ABS_MAX_PX = 0.05
+ALPHA_EDGE_MAX_PX = 0.01
 
 
 def _pose(rx_deg: float, ry_deg: float, rz_deg: float, t_mm) -> np.ndarray:
@@ -154,7 +157,15 @@ def test_blender_texture_matches_analytic_projection(plane, tmp_path):
                        "objects": [{"mesh": "plane", "pass_index": 1, "T_m2c": T.tolist()}]}
                       for i, (K, T) in enumerate(CASES)]}
     results = render_job(job)
+    h = SIZE_MM / 2
+    outline = np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]])
     for (K, T), res in zip(CASES, results):
-        rgb = np.clip(read_exr_rgba(res["rgba"])[..., :3], 0.0, 1.0)
+        rgba = read_exr_rgba(res["rgba"])
+        q = _project(K, T, outline)
+        area = 0.5 * abs(np.dot(q[:, 0], np.roll(q[:, 1], -1)) - np.dot(q[:, 1], np.roll(q[:, 0], -1)))
+        perimeter = np.linalg.norm(q - np.roll(q, -1, axis=0), axis=1).sum()
+        edge_px = (float(rgba[..., 3].astype(np.float64).sum()) - area) / perimeter
+        assert abs(edge_px) < ALPHA_EDGE_MAX_PX, f"Blender silhouette: mean boundary offset {edge_px:+.4f} px"
+        rgb = np.clip(rgba[..., :3], 0.0, 1.0)
         srgb = np.where(rgb <= 0.0031308, 12.92 * rgb, 1.055 * rgb ** (1 / 2.4) - 0.055) * 255.0
         _check(_registration(_gray(srgb), K, T, corners), f"Blender, fy/fx {K[1, 1] / K[0, 0]:.5f}")
