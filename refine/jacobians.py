@@ -29,15 +29,24 @@ def _point_jac(P: np.ndarray) -> np.ndarray:
     return J
 
 
+def _project(K: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pinhole projection of camera points Y (N, 3): pixels uv (N, 2), valid (N,) (Z > MIN_Z_MM,
+    finite), and the normalised coordinates x, y and depth Zs (N,) (Zs = 1 where invalid)."""
+    Z = Y[:, 2]
+    valid = (Z > MIN_Z_MM) & (Z < np.inf) & np.isfinite(Y[:, 0]) & np.isfinite(Y[:, 1])
+    Zs = np.where(valid, Z, 1.0)
+    x, y = Y[:, 0] / Zs, Y[:, 1] / Zs
+    uv = np.empty((len(Y), 2))
+    uv[:, 0] = K[0, 0] * x + K[0, 1] * y + K[0, 2]
+    uv[:, 1] = K[1, 1] * y + K[1, 2]
+    return uv, valid, x, y, Zs
+
+
 def project_jac(K: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Project camera points Y (N, 3): pixels (N, 2), d u / d Y (N, 2, 3), valid (N,) (Z > MIN_Z_MM, finite)."""
     Y = np.asarray(Y, dtype=np.float64)
-    Z = Y[:, 2]
-    valid = np.isfinite(Y).all(axis=1) & (Z > MIN_Z_MM)
-    Zs = np.where(valid, Z, 1.0)
-    x, y = Y[:, 0] / Zs, Y[:, 1] / Zs
+    uv, valid, x, y, Zs = _project(K, Y)
     fx, fy, s = K[0, 0], K[1, 1], K[0, 1]
-    uv = np.stack([fx * x + s * y + K[0, 2], fy * y + K[1, 2]], axis=1)
     J = np.zeros((len(Y), 2, 3))
     J[:, 0, 0] = fx / Zs
     J[:, 0, 1] = s / Zs
@@ -45,6 +54,19 @@ def project_jac(K: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     J[:, 1, 1] = fy / Zs
     J[:, 1, 2] = -fy * y / Zs
     return uv, J, valid
+
+
+def _se3_jac(M: np.ndarray, P: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """M @ [I, -[P]x] for M (N, 2, 3) and points P (N, 3), written into ``out`` (N, 2, 6).
+
+    Row r of M times -[P]x is P x r (the cross product), so no (N, 3, 6) intermediate is built."""
+    out[:, :, :3] = M
+    P0, P1, P2 = P[:, 0, None], P[:, 1, None], P[:, 2, None]
+    r0, r1, r2 = M[:, :, 0], M[:, :, 1], M[:, :, 2]
+    out[:, :, 3] = P1 * r2 - P2 * r1
+    out[:, :, 4] = P2 * r0 - P0 * r2
+    out[:, :, 5] = P0 * r1 - P1 * r0
+    return out
 
 
 def object_point_jacobians(K: np.ndarray, T_c: np.ndarray, T_m: np.ndarray, X: np.ndarray
@@ -56,8 +78,9 @@ def object_point_jacobians(K: np.ndarray, T_c: np.ndarray, T_m: np.ndarray, X: n
     W = X @ T_m[:3, :3].T + T_m[:3, 3]
     Y = W @ T_c[:3, :3].T + T_c[:3, 3]
     uv, Ju, valid = project_jac(K, Y)
-    J_cam = Ju @ _point_jac(Y)
-    J_obj = Ju @ (T_c[:3, :3] @ _point_jac(W))
+    n = len(X)
+    J_cam = _se3_jac(Ju, Y, np.empty((n, 2, 6)))
+    J_obj = _se3_jac((Ju.reshape(2 * n, 3) @ T_c[:3, :3]).reshape(n, 2, 3), W, np.empty((n, 2, 6)))
     return uv, J_cam, J_obj, valid
 
 
@@ -66,11 +89,14 @@ def transfer_point_jacobians(K_i: np.ndarray, T_c_i: np.ndarray, T_c_k: np.ndarr
     """Projection into camera i of points Y_k (N, 3) given in camera k, with Jacobians.
 
     Returns uv (N, 2), J_i (N, 2, 6), J_k (N, 2, 6), valid (N,)."""
+    Y_k = np.asarray(Y_k, dtype=np.float64)
     T_ik = T_c_i @ inv_T(T_c_k)
     Y_i = Y_k @ T_ik[:3, :3].T + T_ik[:3, 3]
     uv, Ju, valid = project_jac(K_i, Y_i)
-    J_i = Ju @ _point_jac(Y_i)
-    J_k = -(Ju @ (T_ik[:3, :3] @ _point_jac(Y_k)))
+    n = len(Y_k)
+    J_i = _se3_jac(Ju, Y_i, np.empty((n, 2, 6)))
+    J_k = _se3_jac((Ju.reshape(2 * n, 3) @ T_ik[:3, :3]).reshape(n, 2, 3), Y_k, np.empty((n, 2, 6)))
+    np.negative(J_k, out=J_k)
     return uv, J_i, J_k, valid
 
 
@@ -86,9 +112,5 @@ def backproject_px(K: np.ndarray, uv: np.ndarray, depth: np.ndarray) -> np.ndarr
 
 def project_points(K: np.ndarray, T: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Pixels (N, 2) of points X (N, 3) under T (4x4), valid (N,) (no Jacobians: the cheap path)."""
-    Y = np.asarray(X, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
-    Z = Y[:, 2]
-    valid = np.isfinite(Y).all(axis=1) & (Z > MIN_Z_MM)
-    Zs = np.where(valid, Z, 1.0)
-    x, y = Y[:, 0] / Zs, Y[:, 1] / Zs
-    return np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1), valid
+    uv, valid, _, _, _ = _project(K, np.asarray(X, dtype=np.float64) @ T[:3, :3].T + T[:3, 3])
+    return uv, valid

@@ -3,6 +3,7 @@ destination image, a reciprocal (forward-backward) check, taken at Shi-Tomasi co
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
@@ -36,10 +37,44 @@ def _gray_u8(img: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(img.astype(np.uint8))
 
 
+CORNER_MARGIN_PX = 8   # crop margin around a mask for the corner detector (its response reaches 3 px)
+
+_POOL: ThreadPoolExecutor | None = None
+
+
+def _pool() -> ThreadPoolExecutor:
+    """One worker thread per process for the second flow of a pair (OpenCV releases the GIL)."""
+    global _POOL
+    if _POOL is None:
+        _POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="ycbvss-flow")
+    return _POOL
+
+
 def dense_flow(src: np.ndarray, dst: np.ndarray, opt: FlowOptions) -> np.ndarray:
     """Farneback flow (H, W, 2) float32: src(x) ~ dst(x + flow(x))."""
     return cv2.calcOpticalFlowFarneback(_gray_u8(src), _gray_u8(dst), None, opt.pyr_scale, opt.levels,
                                         opt.winsize, opt.iterations, opt.poly_n, opt.poly_sigma, 0)
+
+
+def dense_flow_pair(a: np.ndarray, b: np.ndarray, opt: FlowOptions) -> tuple[np.ndarray, np.ndarray]:
+    """(:func:`dense_flow` (a, b), :func:`dense_flow` (b, a)), the two computed concurrently
+    (the backward one in a worker thread); the same flows as two sequential calls."""
+    ga, gb = _gray_u8(a), _gray_u8(b)
+    bwd = _pool().submit(dense_flow, gb, ga, opt)
+    try:
+        fwd = dense_flow(ga, gb, opt)
+    finally:
+        out = bwd.result()
+    return fwd, out
+
+
+def _mask_box(mask: np.ndarray, margin: int) -> tuple[int, int, int, int]:
+    """Bounding box (y0, y1, x0, x1) of a non-empty mask grown by ``margin`` px, clipped to it."""
+    H, W = mask.shape
+    ys = np.flatnonzero(mask.any(axis=1))
+    xs = np.flatnonzero(mask.any(axis=0))
+    return (max(int(ys[0]) - margin, 0), min(int(ys[-1]) + 1 + margin, H),
+            max(int(xs[0]) - margin, 0), min(int(xs[-1]) + 1 + margin, W))
 
 
 def min_eig_map(img: np.ndarray) -> np.ndarray:
@@ -49,16 +84,25 @@ def min_eig_map(img: np.ndarray) -> np.ndarray:
 
 def corners(img: np.ndarray, mask: np.ndarray | None, opt: FlowOptions, max_n: int | None = None,
             me: np.ndarray | None = None) -> np.ndarray:
-    """Shi-Tomasi corners (N, 2) float64 of an image inside ``mask`` (``me``: precomputed :func:`min_eig_map`)."""
+    """Shi-Tomasi corners (N, 2) float64 of an image inside ``mask`` (``me``: precomputed :func:`min_eig_map`).
+
+    The detector runs on the mask's bounding box grown by ``CORNER_MARGIN_PX`` (the same corners
+    as on the whole image: its response, local-maximum test and quality level, relative to the
+    strongest response inside the mask, only see pixels that close to the mask)."""
     if mask is not None and not np.any(mask):
         return np.zeros((0, 2))
     g = _gray_u8(img)
-    pts = cv2.goodFeaturesToTrack(g, maxCorners=int(max_n or opt.max_corners), qualityLevel=opt.quality,
-                                  minDistance=opt.min_distance_px,
-                                  mask=None if mask is None else mask.astype(np.uint8))
+    y0 = x0 = 0
+    gc, mc = g, None
+    if mask is not None:
+        y0, y1, x0, x1 = _mask_box(mask, CORNER_MARGIN_PX)
+        gc = np.ascontiguousarray(g[y0:y1, x0:x1])
+        mc = np.ascontiguousarray(mask[y0:y1, x0:x1], dtype=np.uint8)
+    pts = cv2.goodFeaturesToTrack(gc, maxCorners=int(max_n or opt.max_corners), qualityLevel=opt.quality,
+                                  minDistance=opt.min_distance_px, mask=mc)
     if pts is None:
         return np.zeros((0, 2))
-    pts = pts.reshape(-1, 2).astype(np.float64)
+    pts = pts.reshape(-1, 2).astype(np.float64) + (x0, y0)
     if opt.min_eig > 0:   # absolute threshold: a uniform (textureless) region yields no corners at all
         me = min_eig_map(g) if me is None else me
         pts = pts[me[pts[:, 1].astype(int), pts[:, 0].astype(int)] >= opt.min_eig]
@@ -89,9 +133,11 @@ def flow_matches(src: np.ndarray, dst: np.ndarray, src_masks: list[np.ndarray], 
     With ``dst_image`` a match must also land on texture there (min eigenvalue >= min_eig / 4):
     flow into a uniform region passes the reciprocal check but carries no information."""
     if flows is None:
-        flows = (dense_flow(src, dst, opt), dense_flow(dst, src, opt))
+        flows = dense_flow_pair(src, dst, opt)
     fwd, bwd = flows
     ci = src if corner_image is None else corner_image
+    if opt.min_eig > 0 and corner_me is None and len(src_masks) > 1:
+        corner_me = min_eig_map(ci)          # once for all masks
     me_dst = None
     if opt.min_eig > 0 and (dst_image is not None or dst_me is not None):
         me_dst = (min_eig_map(dst_image) if dst_me is None else dst_me)[..., None]

@@ -1,9 +1,9 @@
-"""Damped Newton / Levenberg-Marquardt on se(3) increments with sparse normal equations.
+"""Damped Newton / Levenberg-Marquardt on se(3) increments with block-structured normal equations.
 
-The normal matrix is assembled block-wise (6x6 blocks, one per free camera/object) into a
-``scipy.sparse`` matrix and solved with a sparse LU. A step that does not lower the total cost
-is rejected (the state is restored and the damping raised), so the cost never increases and no
-NaN can enter the poses. Uncertainty: covariance = s^2 H^-1 with H the final (undamped) normal
+The normal matrix is assembled block-wise (6x6 blocks, one per free camera/object): dense and
+solved by Cholesky for small bundles, a ``scipy.sparse`` matrix solved by sparse LU for large
+ones. A step that does not lower the total cost is rejected (the state is restored and the
+damping raised), so the cost never increases and no NaN can enter the poses. Uncertainty: covariance = s^2 H^-1 with H the final (undamped) normal
 matrix and s^2 = 2 f / max(N_obs - N_params, 1) (the residual variance of a least-squares cost
 f = sum r^2 whose Hessian is 2 J^T J); an annotation-confidence indicator, not a calibrated one.
 """
@@ -13,6 +13,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -32,58 +33,88 @@ class SolverOptions:
     max_extrapolate: int = 3     # after an accepted step, try up to this many doublings of it (cost only)
 
 
-def assemble(n_blocks: int, lins: list[Linearization]) -> tuple[sp.csr_matrix, np.ndarray]:
-    """Sparse normal matrix H (6B x 6B) and gradient g (6B,) from linearisations."""
-    blocks: dict[tuple[int, int], np.ndarray] = {}
-    g = np.zeros(6 * n_blocks)
+DENSE_MAX_PARAMS = 1200   # normal matrices up to this size are assembled and solved dense (Cholesky)
 
-    def add(p, q, M):
-        if p < 0 or q < 0:
-            return
-        if (p, q) in blocks:
-            blocks[(p, q)] += M
-        else:
-            blocks[(p, q)] = M.copy()
 
-    for L in lins:
-        AJa = L.A @ L.Ja                     # (N, 2, 6)
-        AJb = L.A @ L.Jb
-        Haa = np.einsum("nki,nkj->ij", L.Ja, AJa)
-        Hbb = np.einsum("nki,nkj->ij", L.Jb, AJb)
-        Hab = np.einsum("nki,nkj->ij", L.Ja, AJb)
-        add(L.a, L.a, Haa)
-        add(L.b, L.b, Hbb)
-        if L.a >= 0 and L.b >= 0:
-            if L.a == L.b:
-                add(L.a, L.a, Hab + Hab.T)
-            else:
-                add(L.a, L.b, Hab)
-                add(L.b, L.a, Hab.T)
-        if L.a >= 0:
-            g[6 * L.a:6 * L.a + 6] += np.einsum("nki,nk->i", L.Ja, L.g)
-        if L.b >= 0:
-            g[6 * L.b:6 * L.b + 6] += np.einsum("nki,nk->i", L.Jb, L.g)
-    rows, cols, vals = [], [], []
-    ii, jj = np.meshgrid(np.arange(6), np.arange(6), indexing="ij")
-    for (p, q), M in blocks.items():
-        rows.append((6 * p + ii).ravel())
-        cols.append((6 * q + jj).ravel())
-        vals.append(M.ravel())
-    N = 6 * n_blocks
-    if rows:
-        H = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(N, N))
+def _normal_block(L: Linearization) -> tuple[np.ndarray, np.ndarray]:
+    """The (12, 12) normal matrix [Ja Jb]^T A [Ja Jb] and (12,) gradient [Ja Jb]^T g of one
+    linearisation, summed over its points with one matrix product.
+
+    A (N, 2, 2) is applied row by row with broadcasting (no stacked 2x2 matmul); an isotropic
+    A = w I (the robust reprojection terms) takes a cheaper path."""
+    n = len(L.g)
+    J = np.empty((n, 2, 12))
+    J[:, :, :6] = L.Ja
+    J[:, :, 6:] = L.Jb
+    A = L.A
+    a00, a01, a10, a11 = A[:, 0, 0, None], A[:, 0, 1, None], A[:, 1, 0, None], A[:, 1, 1, None]
+    J0, J1 = J[:, 0], J[:, 1]
+    if not (A[:, 0, 1].any() or A[:, 1, 0].any()) and np.array_equal(A[:, 0, 0], A[:, 1, 1]):
+        AJ = J * a00[:, :, None]                     # A = w I
     else:
-        H = sp.csr_matrix((N, N))
-    return H, g
+        AJ = np.empty_like(J)
+        AJ[:, 0] = a00 * J0 + a01 * J1
+        AJ[:, 1] = a10 * J0 + a11 * J1
+    Jf = J.reshape(2 * n, 12)
+    return Jf.T @ AJ.reshape(2 * n, 12), Jf.T @ L.g.reshape(2 * n)
 
 
-def damped_solve(H: sp.csr_matrix, g: np.ndarray, lam: float) -> np.ndarray:
-    """Solve (H + lam * (diag(H) + eps)) delta = -g; returns zeros if singular."""
+def assemble(n_blocks: int, lins: list[Linearization]) -> tuple[np.ndarray | sp.csr_matrix, np.ndarray]:
+    """Normal matrix H (6B x 6B) and gradient g (6B,) from linearisations.
+
+    H is a dense array when 6B <= ``DENSE_MAX_PARAMS`` (small bundles: dense Cholesky is much
+    faster than building and factorising a sparse matrix), else a ``scipy.sparse`` CSR matrix of
+    6x6 blocks. Blocks a or b < 0 (fixed) are dropped; a == b adds all four sub-blocks to (a, a)."""
+    N = 6 * n_blocks
+    g = np.zeros(N)
+    dense = N <= DENSE_MAX_PARAMS
+    Hd = np.zeros((N, N)) if dense else None
+    blocks: dict[tuple[int, int], np.ndarray] = {}
+    for L in lins:
+        if len(L.g) == 0 or (L.a < 0 and L.b < 0):
+            continue
+        H12, g12 = _normal_block(L)
+        idx = [(p, 6 * k) for k, p in enumerate((L.a, L.b)) if p >= 0]
+        for p, P in idx:
+            g[6 * p:6 * p + 6] += g12[P:P + 6]
+            for q, Q in idx:
+                M = H12[P:P + 6, Q:Q + 6]
+                if dense:
+                    Hd[6 * p:6 * p + 6, 6 * q:6 * q + 6] += M
+                elif (p, q) in blocks:
+                    blocks[(p, q)] += M
+                else:
+                    blocks[(p, q)] = M.copy()
+    if dense:
+        return Hd, g
+    if not blocks:
+        return sp.csr_matrix((N, N)), g
+    keys = np.array(list(blocks), dtype=np.int64)                  # (nb, 2)
+    ii, jj = np.meshgrid(np.arange(6), np.arange(6), indexing="ij")
+    rows = (6 * keys[:, 0, None] + ii.ravel()[None]).ravel()
+    cols = (6 * keys[:, 1, None] + jj.ravel()[None]).ravel()
+    vals = np.stack(list(blocks.values())).ravel()
+    return sp.csr_matrix((vals, (rows, cols)), shape=(N, N)), g
+
+
+def damped_solve(H: np.ndarray | sp.csr_matrix, g: np.ndarray, lam: float) -> np.ndarray:
+    """Solve (H + lam * (diag(H) + eps)) delta = -g; returns zeros if singular.
+
+    Dense H: Cholesky (the damped matrix is positive definite: H is a sum of J^T A J with A PSD),
+    LU if that fails; sparse H: sparse LU."""
     d = H.diagonal()
     eps = 1e-9 * max(float(d.max()) if d.size else 1.0, 1e-12) + 1e-12
-    D = sp.diags(lam * (d + eps) + eps)
+    damp = lam * (d + eps) + eps
     try:
-        delta = spla.spsolve((H + D).tocsc(), -g)
+        if isinstance(H, np.ndarray):
+            M = H.copy()
+            M[np.diag_indices_from(M)] += damp
+            try:
+                delta = sla.cho_solve(sla.cho_factor(M, check_finite=False), -g, check_finite=False)
+            except np.linalg.LinAlgError:
+                delta = sla.solve(M, -g, check_finite=False)
+        else:
+            delta = spla.spsolve((H + sp.diags(damp)).tocsc(), -g)
     except Exception:   # noqa: BLE001 - singular system: no step
         return np.zeros_like(g)
     delta = np.asarray(delta, dtype=np.float64)
@@ -178,7 +209,7 @@ def covariance(pb: BundleProblem, terms, max_dense: int = 3000) -> np.ndarray | 
         return None
     f, _, lins = linearize_all(pb, terms)
     H, _ = assemble(pb.n_blocks, lins)
-    Hd = H.toarray()
+    Hd = H.toarray() if sp.issparse(H) else H
     Hd = 0.5 * (Hd + Hd.T)
     n_obs = sum(t.n_obs() for t in terms)
     s2 = 2.0 * f / max(n_obs - pb.n_params, 1)
