@@ -45,8 +45,8 @@ class RefineOptions:
     alpha: float = 5.0
     beta: float = 1.0
     keyframe_step: int = 0
-    max_iters: int = 5
-    coarse_iters: int = 3
+    max_iters: int = 6
+    coarse_iters: int = 2
     inner_iters: int = 4
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px (one image: (4, 2, 1)) scaled by width / 640 (>= 1)
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
@@ -55,6 +55,7 @@ class RefineOptions:
     edge_norm_percentile: float = 100.0
     edge_linear_light: bool = False   # edge field from linear-light luminance (sRGB decoded)
     edge_interp: str = "cubic"        # "cubic" (Catmull-Rom) or "linear" sampling of the edge field
+    edge_colour: bool = True          # edge strength from the three colour channels, not the grey value
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
     crease_band_px: int = 0           # drop crease samples with another edge 2..N px across them (0: keep all)
     max_extrapolate: int = 3          # line search: up to N doublings of an accepted Newton step
@@ -237,7 +238,7 @@ class _Stage:
             n_outer = opt.max_iters if li == len(sigmas) - 1 else min(opt.coarse_iters, opt.max_iters)
             t0 = time.perf_counter()
             fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_linear_light,
-                                  opt.edge_interp) for i in self.term_views}
+                                  opt.edge_interp, opt.edge_colour) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
             for outer in range(n_outer):
                 renders = {i: self.render(i) for i in self.term_views}

@@ -61,9 +61,24 @@ def srgb_to_linear_gray(image: np.ndarray) -> np.ndarray:
     return (255.0 * lin).astype(np.float32)
 
 
+def colour_gradient_magnitude(rgb: np.ndarray, sigma_px: float) -> np.ndarray:
+    """Colour edge strength (H, W) float32: the Frobenius norm of the colour Jacobian of the
+    Gaussian-blurred image, sqrt(sum_c |grad I_c|^2 / 3) (equal to |grad I| on a grey image).
+    A yellow bottle on a white table is almost invisible in grey levels but not in the blue channel."""
+    f = np.asarray(rgb, dtype=np.float32)[..., :3]
+    g = cv2.GaussianBlur(f, (0, 0), sigmaX=max(sigma_px, 0.3)) if sigma_px > 0 else f
+    gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3) / 8.0
+    gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3) / 8.0
+    return np.sqrt((gx * gx + gy * gy).sum(axis=2) / 3.0)
+
+
 def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float = 100.0,
-               linear_light: bool = False, interp: str = "cubic") -> EdgeField:
+               linear_light: bool = False, interp: str = "cubic", colour: bool = False) -> EdgeField:
     """Edge field of an image (RGB or gray) at blur ``sigma_px``.
+
+    ``colour``: edge strength from all three channels (:func:`colour_gradient_magnitude`) instead
+    of the grey value; objects whose colour differs from the background mostly in hue (same
+    brightness) keep their silhouettes.
 
     ``linear_light``: take the gradient of the linear-light luminance (sRGB decoded) instead of the
     gamma-encoded grey value. A camera integrates light linearly, so an anti-aliased or blurred
@@ -75,8 +90,14 @@ def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float 
     percentile (robust maximum, values above it clip to E = 0) keeps one very strong edge from
     flattening all others. A uniform image (max gradient 0) gives E = 1 everywhere and zero
     derivatives (no pull)."""
-    gray = srgb_to_linear_gray(image) if linear_light else to_gray_f32(image)
-    mag = gradient_magnitude(gray, sigma_px)
+    img = np.asarray(image)
+    if colour and img.ndim == 3:
+        if linear_light:
+            x = img[..., :3].astype(np.float32) / 255.0
+            img = 255.0 * np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+        mag = colour_gradient_magnitude(img, sigma_px)
+    else:
+        mag = gradient_magnitude(srgb_to_linear_gray(image) if linear_light else to_gray_f32(image), sigma_px)
     mx = float(mag.max()) if norm_percentile >= 100 else float(np.percentile(mag, norm_percentile))
     if mx <= 1e-6:
         mx = float(mag.max())
