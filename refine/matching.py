@@ -3,6 +3,7 @@ destination image, a reciprocal (forward-backward) check, taken at Shi-Tomasi co
 """
 from __future__ import annotations
 
+import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -39,15 +40,16 @@ def _gray_u8(img: np.ndarray) -> np.ndarray:
 
 CORNER_MARGIN_PX = 8   # crop margin around a mask for the corner detector (its response reaches 3 px)
 
-_POOL: ThreadPoolExecutor | None = None
+_POOL: tuple[int, ThreadPoolExecutor] | None = None   # (owning pid, executor)
 
 
 def _pool() -> ThreadPoolExecutor:
-    """One worker thread per process for the second flow of a pair (OpenCV releases the GIL)."""
+    """One worker thread per process for the second flow of a pair (OpenCV releases the GIL).
+    A forked child (Ray / multiprocessing worker) does not inherit the thread: it makes its own."""
     global _POOL
-    if _POOL is None:
-        _POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="ycbvss-flow")
-    return _POOL
+    if _POOL is None or _POOL[0] != os.getpid():
+        _POOL = (os.getpid(), ThreadPoolExecutor(max_workers=1, thread_name_prefix="ycbvss-flow"))
+    return _POOL[1]
 
 
 def dense_flow(src: np.ndarray, dst: np.ndarray, opt: FlowOptions) -> np.ndarray:
