@@ -58,6 +58,8 @@ class RefineOptions:
     edge_colour: bool = True          # edge strength from the three colour channels, not the grey value
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
     crease_band_px: int = 0           # drop crease samples with another edge 2..N px across them (0: keep all)
+    fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
+    folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     max_extrapolate: int = 3          # line search: up to N doublings of an accepted Newton step
     n_matches: int = 1000
     match_erode_px: int = 6
@@ -119,6 +121,7 @@ class _Stage:
         self.visible: set[tuple[int, int]] = set()
         self.converged = False
         self._point_term = None
+        self.fold_angle = opt.fold_min_angle_deg
 
     def _t(self, key: str, dt: float) -> None:
         self.stats[key] = self.stats.get(key, 0.0) + dt
@@ -156,7 +159,8 @@ class _Stage:
                     continue
                 for j, X in view_edge_samples(vr, pb.views[i].K, opt.n_edge_points, self.rng,
                                                    creases=opt.edge_creases,
-                                                   crease_band_px=opt.crease_band_px).items():
+                                                   crease_band_px=opt.crease_band_px,
+                                                   fold_min_angle_deg=self.fold_angle).items():
                     if (i, j) in vis and len(X):
                         groups.append(EdgeGroup(i, j, X))
             sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
@@ -236,6 +240,8 @@ class _Stage:
         n_built = 0
         for li, sigma in enumerate(sigmas):
             n_outer = opt.max_iters if li == len(sigmas) - 1 else min(opt.coarse_iters, opt.max_iters)
+            finest = li == len(sigmas) - 1 and len(sigmas) > 1
+            self.fold_angle = 180.0 if (finest and not opt.folds_at_finest) else opt.fold_min_angle_deg
             t0 = time.perf_counter()
             fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_linear_light,
                                   opt.edge_interp, opt.edge_colour) for i in self.term_views}

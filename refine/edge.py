@@ -265,7 +265,8 @@ def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 2
                  depth_jump_rel: float = 0.03, inst: np.ndarray | None = None,
                  band_px: int = 0, other_edges: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Geometric edges of a rendered template (H, W) bool: the normal turns by more than
-    ``min_angle_deg`` or the depth jumps (self-occlusion) towards the right/lower neighbour; the
+    ``min_angle_deg`` (>= 180: folds off, self-occlusions only) or the depth jumps (self-occlusion)
+    towards the right/lower neighbour; the
     edge is marked on the nearer pixel with an offset (H, W, 2) of half a pixel towards the other
     one (the edge lies between the pixel centres). These are the shading/crease edges a photo
     shows even on textureless objects (box edges, a mug's rim).
@@ -286,7 +287,8 @@ def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 2
         both = (d0 > 0) & (d1 > 0)
         if inst is not None:     # only within one object (between objects it is a contour, not a crease)
             both &= inst[: H - dv, : W - du] == inst[dv:, du:]
-        e = both & (((n0 * n1).sum(-1) < c) | (np.abs(d0 - d1) > depth_jump_rel * np.minimum(d0, d1)))
+        jump = np.abs(d0 - d1) > depth_jump_rel * np.minimum(d0, d1)
+        e = both & (jump | ((n0 * n1).sum(-1) < c)) if min_angle_deg < 180.0 else both & jump
         near0 = d0 <= d1
         a, b = e & near0, e & ~near0
         out[: H - dv, : W - du] |= a
@@ -452,7 +454,8 @@ def relocate_to_edge(gray: np.ndarray, uv: np.ndarray, normal: np.ndarray, sigma
 
 def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, normal: np.ndarray | None,
                         canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2,
-                        crease_band_px: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        crease_band_px: int = 0, fold_min_angle_deg: float = 25.0
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,).
     ``normal`` None: no crease edges; ``crease_band_px``: see :func:`crease_edges`."""
     box = _labels_box(inst, 2)
@@ -469,8 +472,8 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     uv = np.stack([u, v], 1).astype(np.float64) + subpixel_offsets(gray, v, u)
     dep, labs = depth[v + y0, u + x0], ic[v, u]
     if normal is not None:
-        ce, off = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1], inst=ic, band_px=crease_band_px,
-                               other_edges=edges)
+        ce, off = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1], min_angle_deg=fold_min_angle_deg,
+                               inst=ic, band_px=crease_band_px, other_edges=edges)
         ce &= inside & ~edges
         v2, u2 = np.nonzero(ce)
         uv = np.concatenate([uv, np.stack([u2, v2], 1) + off[v2, u2]])

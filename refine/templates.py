@@ -95,13 +95,15 @@ def edge_samples(vr: ViewRender, j: int, K: np.ndarray, n_max: int, rng: np.rand
 
 
 def view_edge_samples(vr: ViewRender, K: np.ndarray, n_max: int, rng: np.random.Generator,
-                      erode_px: int = 2, creases: bool = True, crease_band_px: int = 0) -> dict[int, np.ndarray]:
+                      erode_px: int = 2, creases: bool = True, crease_band_px: int = 0,
+                      fold_min_angle_deg: float = 25.0) -> dict[int, np.ndarray]:
     """:func:`edge_samples` for every rendered object of the view in one pass: {j: X (N, 3) mm}.
     ``creases``: add geometric crease edges to the interior samples (``crease_band_px``: drop
     those with another edge that close across them, see :func:`ycbvss.refine.edge.crease_edges`)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm)
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal if creases else None,
-                                         erode_px=erode_px, crease_band_px=crease_band_px)
+                                         erode_px=erode_px, crease_band_px=crease_band_px,
+                                         fold_min_angle_deg=fold_min_angle_deg)
     out = {}
     for lab0, j in enumerate(vr.obj_index):
         lab = lab0 + 1
