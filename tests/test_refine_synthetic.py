@@ -46,9 +46,14 @@ def test_subpixel_recovery_from_5px_init_textured_and_textureless(scene4):
     et, ep, ea = (_mean_err(res.poses, gt, pts, K, textured), _mean_err(res.poses, gt, pts, K, plain),
                   _mean_err(res.poses, gt, pts, K))
     assert et["PRJ"] < 0.5, et
-    assert ep["PRJ"] < 1.5, ep
-    assert ea["ADD"] < e0["ADD"] / 5, (e0, ea)
-    assert ea["tz"] < 3.0, ea
+    assert ep["PRJ"] < 0.5, ep
+    assert ea["ADD"] < e0["ADD"] / 10, (e0, ea)
+    assert ea["tz"] < 1.5, ea
+    # every object, the textureless mug included (measured at 320x240, 4 views: PRJ <= 0.27 px,
+    # R <= 0.41 deg, tz <= 0.97 mm)
+    for o in ps.models:
+        eo = _mean_err(res.poses, gt, pts, K, [o])
+        assert eo["PRJ"] < 0.5 and eo["R"] < 0.8 and eo["tz"] < 2.0, (ps.models[o].name, eo)
     # the accepted steps never raise the cost
     for rec in res.log:
         if rec["accepted"]:
