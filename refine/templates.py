@@ -94,30 +94,60 @@ def edge_samples(vr: ViewRender, j: int, K: np.ndarray, n_max: int, rng: np.rand
     return Y @ inv_T(P)[:3, :3].T + inv_T(P)[:3, 3]
 
 
+@dataclass
+class EdgeCandidates:
+    """All edge pixels of one view's template before sampling: exterior contour (``uv_c`` (N, 2),
+    ``d_c`` depth (N,), ``l_c`` label (N,)) and interior (``uv_i``, ``d_i``, ``l_i``)."""
+
+    uv_c: np.ndarray
+    d_c: np.ndarray
+    l_c: np.ndarray
+    uv_i: np.ndarray
+    d_i: np.ndarray
+    l_i: np.ndarray
+
+
+def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True, crease_band_px: int = 0,
+                         fold_min_angle_deg: float = 25.0) -> EdgeCandidates:
+    """The image work of :func:`view_edge_samples` (no random numbers drawn, so views can be
+    processed concurrently): contour and interior edge pixels of every rendered object."""
+    uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm)
+    uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal if creases else None,
+                                         erode_px=erode_px, crease_band_px=crease_band_px,
+                                         fold_min_angle_deg=fold_min_angle_deg)
+    return EdgeCandidates(uv_c, d_c, l_c, uv_i, d_i, l_i)
+
+
+def select_edge_samples(vr: ViewRender, K: np.ndarray, cands: EdgeCandidates, n_max: int,
+                        rng: np.random.Generator) -> dict[int, np.ndarray]:
+    """Up to n_max model points (mm) per rendered object from a view's :class:`EdgeCandidates`:
+    interior edges (at most half) and contour (the rest), drawn with ``rng`` object by object."""
+    c = cands
+    out = {}
+    for lab0, j in enumerate(vr.obj_index):
+        lab = lab0 + 1
+        ci, ii_ = np.flatnonzero(c.l_c == lab), np.flatnonzero(c.l_i == lab)
+        n_i = min(len(ii_), n_max // 2)
+        n_c = min(len(ci), n_max - n_i)
+        sel_i = ii_[subsample(n_i, len(ii_), rng)]
+        sel_c = ci[subsample(n_c, len(ci), rng)]
+        uv = np.concatenate([c.uv_c[sel_c], c.uv_i[sel_i]])
+        d = np.concatenate([c.d_c[sel_c], c.d_i[sel_i]])
+        ok = d > 0
+        Pinv = inv_T(vr.poses[lab0])
+        out[j] = backproject_px(K, uv[ok], d[ok]) @ Pinv[:3, :3].T + Pinv[:3, 3]
+    return out
+
+
 def view_edge_samples(vr: ViewRender, K: np.ndarray, n_max: int, rng: np.random.Generator,
                       erode_px: int = 2, creases: bool = True, crease_band_px: int = 0,
                       fold_min_angle_deg: float = 25.0) -> dict[int, np.ndarray]:
     """:func:`edge_samples` for every rendered object of the view in one pass: {j: X (N, 3) mm}.
     ``creases``: add geometric crease edges to the interior samples (``crease_band_px``: drop
-    those with another edge that close across them, see :func:`ycbvss.refine.edge.crease_edges`)."""
-    uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm)
-    uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal if creases else None,
-                                         erode_px=erode_px, crease_band_px=crease_band_px,
-                                         fold_min_angle_deg=fold_min_angle_deg)
-    out = {}
-    for lab0, j in enumerate(vr.obj_index):
-        lab = lab0 + 1
-        ci, ii_ = np.flatnonzero(l_c == lab), np.flatnonzero(l_i == lab)
-        n_i = min(len(ii_), n_max // 2)
-        n_c = min(len(ci), n_max - n_i)
-        sel_i = ii_[subsample(n_i, len(ii_), rng)]
-        sel_c = ci[subsample(n_c, len(ci), rng)]
-        uv = np.concatenate([uv_c[sel_c], uv_i[sel_i]])
-        d = np.concatenate([d_c[sel_c], d_i[sel_i]])
-        ok = d > 0
-        Pinv = inv_T(vr.poses[lab0])
-        out[j] = backproject_px(K, uv[ok], d[ok]) @ Pinv[:3, :3].T + Pinv[:3, 3]
-    return out
+    those with another edge that close across them, see :func:`ycbvss.refine.edge.crease_edges`).
+    = :func:`select_edge_samples` of :func:`view_edge_candidates`."""
+    cands = view_edge_candidates(vr, erode_px, creases, crease_band_px, fold_min_angle_deg)
+    return select_edge_samples(vr, K, cands, n_max, rng)
 
 
 def object_mask(vr: ViewRender, j: int, erode_px: int = 2) -> np.ndarray:
