@@ -157,12 +157,12 @@ def object_mask(vr: ViewRender, j: int, erode_px: int = 2) -> np.ndarray:
     return m > 0
 
 
-def composite(vr: ViewRender, image: np.ndarray) -> np.ndarray:
-    """The template: rendered colour where an object was rendered, else the image itself."""
-    m = vr.instance > 0
-    out = image.copy()
-    out[m] = vr.color[m]
-    return out
+def composite(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int] | None = None) -> np.ndarray:
+    """The template: rendered colour where an object was rendered, else the image itself
+    (``box`` = (y0, y1, x0, x1): only that crop of it, the same pixels as cropping the whole)."""
+    y0, y1, x0, x1 = (0, image.shape[0], 0, image.shape[1]) if box is None else box
+    m = vr.instance[y0:y1, x0:x1] > 0
+    return np.where(m[..., None], vr.color[y0:y1, x0:x1], image[y0:y1, x0:x1])
 
 
 def lift(vr: ViewRender, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
