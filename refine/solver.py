@@ -36,27 +36,44 @@ class SolverOptions:
 DENSE_MAX_PARAMS = 1200   # normal matrices up to this size are assembled and solved dense (Cholesky)
 
 
-def _normal_block(L: Linearization) -> tuple[np.ndarray, np.ndarray]:
-    """The (12, 12) normal matrix [Ja Jb]^T A [Ja Jb] and (12,) gradient [Ja Jb]^T g of one
-    linearisation, summed over its points with one matrix product.
+def _normal_block(J: np.ndarray, A: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (k, k) normal matrix sum_n J_n^T A_n J_n and (k,) gradient sum_n J_n^T g_n of pixel
+    Jacobians J (N, 2, k), pixel Hessians A (N, 2, 2) and gradients g (N, 2), summed over the
+    points with one matrix product.
 
-    A (N, 2, 2) is applied row by row with broadcasting (no stacked 2x2 matmul); an isotropic
-    A = w I (the robust reprojection terms) takes a cheaper path."""
-    n = len(L.g)
-    J = np.empty((n, 2, 12))
-    J[:, :, :6] = L.Ja
-    J[:, :, 6:] = L.Jb
-    A = L.A
+    A is applied row by row with broadcasting (no stacked 2x2 matmul); an isotropic A = w I (the
+    robust reprojection terms) takes a cheaper path."""
+    n, k = J.shape[0], J.shape[2]
     a00, a01, a10, a11 = A[:, 0, 0, None], A[:, 0, 1, None], A[:, 1, 0, None], A[:, 1, 1, None]
-    J0, J1 = J[:, 0], J[:, 1]
     if not (A[:, 0, 1].any() or A[:, 1, 0].any()) and np.array_equal(A[:, 0, 0], A[:, 1, 1]):
         AJ = J * a00[:, :, None]                     # A = w I
     else:
+        J0, J1 = J[:, 0], J[:, 1]
         AJ = np.empty_like(J)
         AJ[:, 0] = a00 * J0 + a01 * J1
         AJ[:, 1] = a10 * J0 + a11 * J1
-    Jf = J.reshape(2 * n, 12)
-    return Jf.T @ AJ.reshape(2 * n, 12), Jf.T @ L.g.reshape(2 * n)
+    Jf = J.reshape(2 * n, k)
+    return Jf.T @ AJ.reshape(2 * n, k), Jf.T @ g.reshape(2 * n)
+
+
+def _lin_blocks(L: Linearization) -> tuple[list[tuple[int, int, np.ndarray]], list[tuple[int, np.ndarray]]]:
+    """The normal-equation contributions of one linearisation: ([(p, q, 6x6 block) ...],
+    [(p, 6-gradient) ...]) for its free blocks (a or b < 0: fixed, dropped; a == b: all four
+    sub-blocks go to (a, a)). A single free block is computed from its own Jacobian only."""
+    a, b = int(L.a), int(L.b)
+    if len(L.g) == 0 or (a < 0 and b < 0):
+        return [], []
+    if a < 0 or b < 0:
+        p, Jp = (a, L.Ja) if a >= 0 else (b, L.Jb)
+        H6, g6 = _normal_block(Jp, L.A, L.g)
+        return [(p, p, H6)], [(p, g6)]
+    J = np.empty((len(L.g), 2, 12))
+    J[:, :, :6] = L.Ja
+    J[:, :, 6:] = L.Jb
+    H12, g12 = _normal_block(J, L.A, L.g)
+    idx = ((a, 0), (b, 6))
+    return ([(p, q, H12[P:P + 6, Q:Q + 6]) for p, P in idx for q, Q in idx],
+            [(p, g12[P:P + 6]) for p, P in idx])
 
 
 def assemble(n_blocks: int, lins: list[Linearization]) -> tuple[np.ndarray | sp.csr_matrix, np.ndarray]:
@@ -71,20 +88,16 @@ def assemble(n_blocks: int, lins: list[Linearization]) -> tuple[np.ndarray | sp.
     Hd = np.zeros((N, N)) if dense else None
     blocks: dict[tuple[int, int], np.ndarray] = {}
     for L in lins:
-        if len(L.g) == 0 or (L.a < 0 and L.b < 0):
-            continue
-        H12, g12 = _normal_block(L)
-        idx = [(p, 6 * k) for k, p in enumerate((L.a, L.b)) if p >= 0]
-        for p, P in idx:
-            g[6 * p:6 * p + 6] += g12[P:P + 6]
-            for q, Q in idx:
-                M = H12[P:P + 6, Q:Q + 6]
-                if dense:
-                    Hd[6 * p:6 * p + 6, 6 * q:6 * q + 6] += M
-                elif (p, q) in blocks:
-                    blocks[(p, q)] += M
-                else:
-                    blocks[(p, q)] = M.copy()
+        Hs, gs = _lin_blocks(L)
+        for p, gp in gs:
+            g[6 * p:6 * p + 6] += gp
+        for p, q, M in Hs:
+            if dense:
+                Hd[6 * p:6 * p + 6, 6 * q:6 * q + 6] += M
+            elif (p, q) in blocks:
+                blocks[(p, q)] += M
+            else:
+                blocks[(p, q)] = M.copy()
     if dense:
         return Hd, g
     if not blocks:

@@ -161,8 +161,9 @@ def composite(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int] 
     """The template: rendered colour where an object was rendered, else the image itself
     (``box`` = (y0, y1, x0, x1): only that crop of it, the same pixels as cropping the whole)."""
     y0, y1, x0, x1 = (0, image.shape[0], 0, image.shape[1]) if box is None else box
-    m = vr.instance[y0:y1, x0:x1] > 0
-    return np.where(m[..., None], vr.color[y0:y1, x0:x1], image[y0:y1, x0:x1])
+    out = image[y0:y1, x0:x1].copy()
+    np.copyto(out, vr.color[y0:y1, x0:x1], where=(vr.instance[y0:y1, x0:x1] > 0)[..., None])
+    return out
 
 
 def lift(vr: ViewRender, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
