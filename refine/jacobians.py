@@ -5,28 +5,22 @@ For a model point X, world point W = T_m X and camera point Y = T_c W:
 
 - d Y / d xi_c = [I, -[Y]x]                      (camera increment)
 - d Y / d xi_m = R_c [I, -[W]x]                  (object increment, applied in the world frame)
-- d u / d Y    = [[fx/Z, 0, -fx X/Z^2], [0, fy/Z, -fy Y/Z^2]]   (skew ignored: s = K[0,1])
+- d u / d Y    = [[fx/Z, s/Z, -(fx X + s Y)/Z^2], [0, fy/Z, -fy Y/Z^2]]   (s = K[0,1], the skew)
 
 For a point Y_k fixed in camera k seen from camera i, Y_i = T_c_i T_c_k^-1 Y_k:
 
 - d Y_i / d xi_i = [I, -[Y_i]x];  d Y_i / d xi_k = -R_ik [I, -[Y_k]x] with R_ik = R_c_i R_c_k^T.
+
+The products (d u / d Y) M [I, -[P]x] are formed without (N, 3, 6) temporaries: the rotation
+part of a row r is P x r (see :func:`_se3_jac`).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ycbvss.geometry.se3 import inv_T
-from ycbvss.geometry.so3 import hat
 
 MIN_Z_MM = 1.0   # points closer than this (or behind the camera) are invalid
-
-
-def _point_jac(P: np.ndarray) -> np.ndarray:
-    """[I, -[P]x] for points P (N, 3) -> (N, 3, 6)."""
-    J = np.zeros(P.shape[:-1] + (3, 6))
-    J[..., :, :3] = np.eye(3)
-    J[..., :, 3:] = -hat(P)
-    return J
 
 
 def _project(K: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

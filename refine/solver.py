@@ -3,9 +3,10 @@
 The normal matrix is assembled block-wise (6x6 blocks, one per free camera/object): dense and
 solved by Cholesky for small bundles, a ``scipy.sparse`` matrix solved by sparse LU for large
 ones. A step that does not lower the total cost is rejected (the state is restored and the
-damping raised), so the cost never increases and no NaN can enter the poses. Uncertainty: covariance = s^2 H^-1 with H the final (undamped) normal
-matrix and s^2 = 2 f / max(N_obs - N_params, 1) (the residual variance of a least-squares cost
-f = sum r^2 whose Hessian is 2 J^T J); an annotation-confidence indicator, not a calibrated one.
+damping raised), so the cost never increases and no NaN can enter the poses. Uncertainty:
+covariance = s^2 H^-1 with H the final (undamped) normal matrix and s^2 = 2 f / max(N_obs -
+N_params, 1) (the residual variance of a least-squares cost f = sum r^2 whose Hessian is
+2 J^T J); an annotation-confidence indicator, not a calibrated one.
 """
 from __future__ import annotations
 
