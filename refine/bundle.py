@@ -61,6 +61,9 @@ class RefineOptions:
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     max_extrapolate: int = 3          # line search: up to N doublings of an accepted Newton step
+    extra_iters: int = 4              # finest level: up to N more outer iterations while a pose still moves
+    extend_mm: float = 0.25           # ... by more than this (mm) or
+    extend_deg: float = 0.05          # ... this (deg) per outer iteration
     n_matches: int = 1000
     match_erode_px: int = 6
     flow_margin_px: int = 24
@@ -246,7 +249,8 @@ class _Stage:
             fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_linear_light,
                                   opt.edge_interp, opt.edge_colour) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
-            for outer in range(n_outer):
+            n_cap = n_outer + (opt.extra_iters if li == len(sigmas) - 1 else 0)
+            for outer in range(n_cap):
                 renders = {i: self.render(i) for i in self.term_views}
                 n_built += 1
                 terms = self.build_terms(fields, renders, recompute_matches=(n_built - 1) % max(opt.match_every, 1) == 0)
@@ -264,6 +268,8 @@ class _Stage:
                     self.converged = True
                     break
                 self.converged = conv
+                if outer + 1 >= n_outer and dmm < opt.extend_mm and ddeg < opt.extend_deg:
+                    break     # the extra iterations only while some pose still really moves
         return terms
 
 
