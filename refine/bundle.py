@@ -34,9 +34,16 @@ class RefineOptions:
     there the edge term acts alone).
     ``keyframe_step`` N > 1: optimise every N-th frame jointly, then place and refine the others
     (camera only). ``edge_sigmas_px``: coarse-to-fine blur of the edge field. ``max_iters``: outer
-    iterations (re-render + re-sample) at the finest level, ``coarse_iters`` at each coarser one;
-    ``inner_iters``: damped Newton steps per outer iteration. ``fix_cameras``: use the frames'
+    iterations (re-render + re-sample) at the finest level (plus up to ``extra_iters`` while a pose
+    still moves by more than ``extend_mm`` / ``extend_deg``), ``coarse_iters`` at each coarser one;
+    ``inner_iters``: damped Newton steps per outer iteration, each accepted step extended by up to
+    ``max_extrapolate`` doublings while the cost keeps falling. ``fix_cameras``: use the frames'
     T_w2c as known cameras and refine the objects only.
+
+    Edge samples: half exterior contour, half interior -- Canny edges of the template, its
+    self-occlusion edges and (at the coarser levels only, ``folds_at_finest``) its fold edges,
+    whose image edge lies where the shading turns, not at the geometric crease, on rounded rims.
+    The edge field uses the colour gradient (``edge_colour``) read bicubically (``edge_interp``).
     """
 
     use_edge: bool = True

@@ -1,10 +1,12 @@
 """Edge field of an image and edge-point sampling from rendered templates.
 
 Edge field (paper Sec. 3.2): E = 1 - |grad I| / max |grad I| in [0, 1], small on strong edges.
-For coarse-to-fine we compute the gradient of the image blurred with a Gaussian of standard
-deviation ``sigma_px`` (derivative-of-Gaussian), so the basin of each edge widens with sigma.
-The field is sampled bilinearly together with its first and second derivatives (for the
-Newton-type step of :mod:`ycbvss.refine.terms`). Outside the image E = 1 and all derivatives 0.
+|grad I| is the colour edge strength (all three channels) or the grey-level one; for
+coarse-to-fine it is taken on the image blurred with a Gaussian of standard deviation ``sigma_px``
+(derivative-of-Gaussian), so the basin of each edge widens with sigma. E is read through bicubic
+(Catmull-Rom) interpolation with its exact gradient -- bilinear reading would put every minimum on
+a pixel centre -- plus a bilinearly read Hessian (for the Newton-type step of
+:mod:`ycbvss.refine.terms`). Outside the image E = 1 and all derivatives 0.
 """
 from __future__ import annotations
 
