@@ -3,8 +3,10 @@
 frames, then per-pose uncertainty. See the package docstring for the model."""
 from __future__ import annotations
 
+import os
 import time
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,10 +18,11 @@ from ycbvss.geometry.so3 import is_rotation, rotation_angle_deg
 from .edge import edge_field
 from .jacobians import backproject_px
 from .init import initialise, sample_model_points, symmetry_transforms
-from .matching import FlowOptions, dense_flow, flow_matches, min_eig_map, normalize_for_flow
+from .matching import FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow
 from .problem import BundleProblem, View
 from .solver import SolverOptions, covariance, run_lm
-from .templates import composite, view_edge_samples, ensure_meshes, get_renderer, object_mask, render_view
+from .templates import (composite, ensure_meshes, get_renderer, object_mask, render_view, select_edge_samples,
+                        view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .uncertainty import pose_sigmas
 
@@ -164,13 +167,13 @@ class _Stage:
         if opt.use_edge:
             t0 = time.perf_counter()
             groups = []
-            for i, vr in renders.items():
-                if not any((i, j) in vis for j in vr.obj_index):
-                    continue
-                for j, X in view_edge_samples(vr, pb.views[i].K, opt.n_edge_points, self.rng,
-                                                   creases=opt.edge_creases,
-                                                   crease_band_px=opt.crease_band_px,
-                                                   fold_min_angle_deg=self.fold_angle).items():
+            # the image work per view runs on a thread pool; the samples are drawn in view order
+            jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
+                                                crease_band_px=opt.crease_band_px,
+                                                fold_min_angle_deg=self.fold_angle))
+                    for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
+            for i, vr, job in jobs:
+                for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, self.rng).items():
                     if (i, j) in vis and len(X):
                         groups.append(EdgeGroup(i, j, X))
             sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
@@ -182,17 +185,19 @@ class _Stage:
         elif opt.use_point and opt.alpha > 0:
             t0 = time.perf_counter()
             groups = []
+            jobs = []        # the views' flow matching runs on a thread pool (OpenCV releases the GIL)
             for i, vr in renders.items():
                 objs = [j for j in vr.obj_index if (i, j) in vis]
                 if not objs:
                     continue
                 y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
-                raw = composite(vr, pb.views[i].image)[y0:y1, x0:x1]
+                raw = composite(vr, pb.views[i].image, (y0, y1, x0, x1))
                 masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
                 img_c = pb.views[i].image[y0:y1, x0:x1]
-                matches = flow_matches(normalize_for_flow(raw), normalize_for_flow(img_c), masks, opt.flow,
-                                       corner_image=raw, dst_me=self.me_image(i)[y0:y1, x0:x1])
-                matches = [(a + (x0, y0), b + (x0, y0)) for a, b in matches]
+                jobs.append((i, vr, objs, (x0, y0), _view_pool().submit(
+                    _view_matches, raw, img_c, masks, opt.flow, self.me_image(i)[y0:y1, x0:x1])))
+            for i, vr, objs, (x0, y0), job in jobs:
+                matches = [(a + (x0, y0), b + (x0, y0)) for a, b in job.result()]
                 for j, (xs, xd) in zip(objs, matches):
                     if len(xs) == 0:
                         continue
@@ -221,7 +226,7 @@ class _Stage:
                     y0, y1, x0, x1 = _bbox(both, 2 * opt.flow_margin_px)
                     a = normalize_for_flow(pb.views[key[0]].image[y0:y1, x0:x1])
                     b = normalize_for_flow(pb.views[key[1]].image[y0:y1, x0:x1])
-                    self._flows[key] = ((dense_flow(a, b, opt.flow), dense_flow(b, a, opt.flow)), (y0, y1, x0, x1))
+                    self._flows[key] = (dense_flow_pair(a, b, opt.flow), (y0, y1, x0, x1))
                 (fab, fba), (y0, y1, x0, x1) = self._flows[key]
                 flows = (fab, fba) if k == key[0] else (fba, fab)
                 m = np.zeros(vr.instance.shape, bool)
@@ -278,6 +283,24 @@ class _Stage:
                 if outer + 1 >= n_outer and dmm < opt.extend_mm and ddeg < opt.extend_deg:
                     break     # the extra iterations only while some pose still really moves
         return terms
+
+
+_VIEW_POOL: tuple[int, ThreadPoolExecutor] | None = None   # (owning pid, executor)
+
+
+def _view_pool() -> ThreadPoolExecutor:
+    """Two worker threads per process for per-view image work (re-created in a forked child)."""
+    global _VIEW_POOL
+    if _VIEW_POOL is None or _VIEW_POOL[0] != os.getpid():
+        _VIEW_POOL = (os.getpid(), ThreadPoolExecutor(max_workers=2, thread_name_prefix="ycbvss-view"))
+    return _VIEW_POOL[1]
+
+
+def _view_matches(raw: np.ndarray, img: np.ndarray, masks: list[np.ndarray], flow: FlowOptions,
+                  dst_me: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Flow matches template -> image of one view (crop coordinates), see :func:`flow_matches`."""
+    return flow_matches(normalize_for_flow(raw), normalize_for_flow(img), masks, flow, corner_image=raw,
+                        dst_me=dst_me)
 
 
 def _bbox(mask: np.ndarray, margin: int) -> tuple[int, int, int, int]:

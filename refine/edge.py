@@ -11,6 +11,7 @@ a pixel centre -- plus a bilinearly read Hessian (for the Newton-type step of
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -40,6 +41,18 @@ class EdgeField:
     @property
     def E(self) -> np.ndarray:
         return self.data[..., 0]
+
+    @cached_property
+    def E_padded(self) -> np.ndarray:
+        """E as float64, edge-replicated by 1 px before and 2 px after each axis (H + 3, W + 3):
+        the 4x4 bicubic taps of any in-image point index it directly (same values as clamping)."""
+        return np.pad(self.data[..., 0].astype(np.float64), ((1, 2), (1, 2)), mode="edge")
+
+    @cached_property
+    def hessian_padded(self) -> np.ndarray:
+        """Euu, Euv, Evv (H + 3, W + 3, 3) float64, padded like :attr:`E_padded` (bilinear taps of
+        the Hessian at the bicubic sampler's cell)."""
+        return np.pad(self.data[..., 3:6].astype(np.float64), ((1, 2), (1, 2), (0, 0)), mode="edge")
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -71,7 +84,8 @@ def colour_gradient_magnitude(rgb: np.ndarray, sigma_px: float) -> np.ndarray:
     g = cv2.GaussianBlur(f, (0, 0), sigmaX=max(sigma_px, 0.3)) if sigma_px > 0 else f
     gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3) / 8.0
     gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3) / 8.0
-    return np.sqrt((gx * gx + gy * gy).sum(axis=2) / 3.0)
+    s = gx * gx + gy * gy        # channel sum written out: numpy's reduction over a length-3 last axis is ~10x slower
+    return np.sqrt((s[..., 0] + s[..., 1] + s[..., 2]) / 3.0)
 
 
 def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float = 100.0,
@@ -133,34 +147,50 @@ def sample_bilinear(data: np.ndarray, uv: np.ndarray, outside: np.ndarray | None
     return out, inside
 
 
+# Catmull-Rom weights of taps -1, 0, 1, 2 as polynomials in t: w = [t^3, t^2, t, 1] @ _CR_W,
+# dw/dt = [t^2, t, 1] @ _CR_DW
+_CR_W = 0.5 * np.array([[-1.0, 3.0, -3.0, 1.0], [2.0, -5.0, 4.0, -1.0], [-1.0, 0.0, 1.0, 0.0], [0.0, 2.0, 0.0, 0.0]])
+_CR_DW = 0.5 * np.array([[-3.0, 9.0, -9.0, 3.0], [4.0, -10.0, 8.0, -2.0], [-1.0, 0.0, 1.0, 0.0]])
+
+
 def _catmull_rom(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Catmull-Rom weights (N, 4) for taps -1, 0, 1, 2 at fractional positions t (N,) and their derivatives."""
-    t2, t3 = t * t, t * t * t
-    w = np.stack([0.5 * (-t3 + 2 * t2 - t), 0.5 * (3 * t3 - 5 * t2 + 2),
-                  0.5 * (-3 * t3 + 4 * t2 + t), 0.5 * (t3 - t2)], 1)
-    dw = np.stack([0.5 * (-3 * t2 + 4 * t - 1), 0.5 * (9 * t2 - 10 * t),
-                   0.5 * (-9 * t2 + 8 * t + 1), 0.5 * (3 * t2 - 2 * t)], 1)
-    return w, dw
+    T = np.empty((len(t), 4))
+    T[:, 2] = t
+    np.multiply(t, t, out=T[:, 1])
+    np.multiply(T[:, 1], t, out=T[:, 0])
+    T[:, 3] = 1.0
+    return T @ _CR_W, T[:, 1:] @ _CR_DW
 
 
-def _sample_cubic(E: np.ndarray, u: np.ndarray, v: np.ndarray, with_grad: bool
-                  ) -> tuple[np.ndarray, np.ndarray | None]:
-    """Catmull-Rom bicubic value (N,) and exact gradient (N, 2) of E at in-image points (taps clamped)."""
-    H, W = E.shape
-    u0 = np.floor(u).astype(int)
-    v0 = np.floor(v).astype(int)
-    wu, dwu = _catmull_rom(u - u0)
-    wv, dwv = _catmull_rom(v - v0)
-    cu = np.clip(u0[:, None] + np.arange(-1, 3)[None], 0, W - 1)      # (N, 4)
-    cv = np.clip(v0[:, None] + np.arange(-1, 3)[None], 0, H - 1)
-    P = E[cv[:, :, None], cu[:, None, :]].astype(np.float64)           # (N, 4 rows, 4 cols)
+def _sample_cubic(Ep: np.ndarray, u: np.ndarray, v: np.ndarray, with_grad: bool,
+                  Hp: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """Catmull-Rom bicubic value (N,) and exact gradient (N, 2) of E at in-image points (taps
+    clamped), and with ``Hp`` (:attr:`EdgeField.hessian_padded`) the bilinear Hessian channels (N, 3).
+
+    ``Ep`` is E padded as :attr:`EdgeField.E_padded` (so the 16 taps of a point are one gather);
+    u and v are sampled together (one weight evaluation for both axes)."""
+    n, Wp = len(u), Ep.shape[1]
+    u0, v0 = np.floor(u), np.floor(v)
+    base = v0.astype(np.intp) * Wp + u0.astype(np.intp)
+    P = np.take(Ep, base[:, None] + (np.arange(4)[:, None] * Wp + np.arange(4)[None, :]).ravel()).reshape(n, 4, 4)
+    tu, tv = u - u0, v - v0
+    w, dw = _catmull_rom(np.concatenate([tu, tv]))
+    wu, wv = w[:n], w[n:]
     row = np.einsum("nrc,nc->nr", P, wu)                               # interpolated along u
     val = np.einsum("nr,nr->n", row, wv)
     if not with_grad:
-        return val, None
-    gu = np.einsum("nr,nr->n", np.einsum("nrc,nc->nr", P, dwu), wv)
-    gv = np.einsum("nr,nr->n", row, dwv)
-    return val, np.stack([gu, gv], 1)
+        return val, None, None
+    gu = np.einsum("nr,nr->n", np.einsum("nrc,nc->nr", P, dw[:n]), wv)
+    gv = np.einsum("nr,nr->n", row, dw[n:])
+    hess = None
+    if Hp is not None:       # the same arithmetic as sample_bilinear (identical values, also at u = W - 1)
+        flat = Hp.reshape(-1, 3)
+        i00 = base + (Wp + 1)
+        a, b = tu[:, None], tv[:, None]
+        hess = ((1 - a) * (1 - b) * flat[i00] + a * (1 - b) * flat[i00 + 1]
+                + (1 - a) * b * flat[i00 + Wp] + a * b * flat[i00 + Wp + 1])
+    return val, np.stack([gu, gv], 1), hess
 
 
 def _inside(shape: tuple[int, int], uv: np.ndarray) -> np.ndarray:
@@ -177,7 +207,7 @@ def sample_E(field: EdgeField, uv: np.ndarray) -> np.ndarray:
     out = np.ones(len(uv))
     ins = _inside(field.shape, uv)
     if ins.any():
-        out[ins] = _sample_cubic(field.data[..., 0], uv[ins, 0], uv[ins, 1], False)[0]
+        out[ins] = _sample_cubic(field.E_padded, uv[ins, 0], uv[ins, 1], False)[0]
     return out
 
 
@@ -189,16 +219,20 @@ def sample_field(field: EdgeField, uv: np.ndarray) -> tuple[np.ndarray, np.ndarr
     Hessian is the bilinear interpolation of the central-difference second derivatives (it only
     scales the step)."""
     uv = np.asarray(uv, dtype=np.float64)
-    vals, inside = sample_bilinear(field.data, uv, outside=np.array([1, 0, 0, 0, 0, 0], float))
+    if field.interp != "cubic":
+        vals, inside = sample_bilinear(field.data, uv, outside=np.array([1, 0, 0, 0, 0, 0], float))
+        E_out, hess = vals[:, 0].copy(), vals[:, 3:]
+    else:                    # value, gradient and bilinear Hessian from one bicubic gather
+        inside = _inside(field.shape, uv)
+        E_out, hess = np.ones(len(uv)), np.zeros((len(uv), 3))
     grad = np.zeros((len(uv), 2))
-    E_out = vals[:, 0].copy()
     if np.any(inside):
-        E = field.data[..., 0]
-        H_, W_ = E.shape
         u, v = uv[inside, 0], uv[inside, 1]
         if field.interp == "cubic":
-            E_out[inside], grad[inside] = _sample_cubic(E, u, v, True)
+            E_out[inside], grad[inside], hess[inside] = _sample_cubic(field.E_padded, u, v, True, field.hessian_padded)
         else:
+            E = field.data[..., 0]
+            H_, W_ = E.shape
             u0 = np.clip(np.floor(u).astype(int), 0, max(W_ - 2, 0))
             v0 = np.clip(np.floor(v).astype(int), 0, max(H_ - 2, 0))
             u1, v1 = np.minimum(u0 + 1, W_ - 1), np.minimum(v0 + 1, H_ - 1)
@@ -207,7 +241,7 @@ def sample_field(field: EdgeField, uv: np.ndarray) -> tuple[np.ndarray, np.ndarr
             grad[inside, 0] = (1 - b) * (e01 - e00) + b * (e11 - e10)
             grad[inside, 1] = (1 - a) * (e10 - e00) + a * (e11 - e01)
     H = np.empty((len(uv), 2, 2))
-    H[:, 0, 0], H[:, 0, 1], H[:, 1, 0], H[:, 1, 1] = vals[:, 3], vals[:, 4], vals[:, 4], vals[:, 5]
+    H[:, 0, 0], H[:, 0, 1], H[:, 1, 0], H[:, 1, 1] = hess[:, 0], hess[:, 1], hess[:, 1], hess[:, 2]
     return E_out, grad, H, inside
 
 
@@ -290,7 +324,10 @@ def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 2
         if inst is not None:     # only within one object (between objects it is a contour, not a crease)
             both &= inst[: H - dv, : W - du] == inst[dv:, du:]
         jump = np.abs(d0 - d1) > depth_jump_rel * np.minimum(d0, d1)
-        e = both & (jump | ((n0 * n1).sum(-1) < c)) if min_angle_deg < 180.0 else both & jump
+        if min_angle_deg < 180.0:   # cos of the normal turn, channel sum written out (same order, same bits, ~10x faster)
+            e = both & (jump | ((n0[..., 0] * n1[..., 0] + n0[..., 1] * n1[..., 1] + n0[..., 2] * n1[..., 2]) < c))
+        else:
+            e = both & jump
         near0 = d0 <= d1
         a, b = e & near0, e & ~near0
         out[: H - dv, : W - du] |= a
@@ -401,15 +438,15 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray, return_normals: bool
     h, w = ic.shape
     pad_i = np.pad(ic, 1, constant_values=-1)
     pad_d = np.pad(dc, 1, constant_values=0)
-    dirs = np.zeros((h, w, 2), np.float32)
     is_c = np.zeros((h, w), bool)
     mc = ic > 0
+    edges = []
     for dv, du in _N4:
         ni = pad_i[1 + dv:1 + dv + h, 1 + du:1 + du + w]
         nd = pad_d[1 + dv:1 + dv + h, 1 + du:1 + du + w]
         edge = mc & (ni != ic) & (ni != -1) & ((ni == 0) | (nd > dc))
         is_c |= edge
-        dirs[edge] += (du, dv)
+        edges.append(edge)
     if y0 == 0:
         is_c[0, :] = False
     if x0 == 0:
@@ -419,7 +456,9 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray, return_normals: bool
     if x1 == inst.shape[1]:
         is_c[:, -1] = False
     v, u = np.nonzero(is_c)
-    d = dirs[v, u]
+    d = np.zeros((len(v), 2), np.float32)      # outward direction, summed at the contour pixels only
+    for (dv, du), edge in zip(_N4, edges):
+        d[edge[v, u]] += (du, dv)
     n = np.linalg.norm(d, axis=1, keepdims=True)
     d = np.where(n > 0, d / np.maximum(n, 1e-9), 0.0)
     uv = np.stack([u + x0, v + y0], 1).astype(np.float64) + 0.5 * d

@@ -44,11 +44,18 @@ def psd2(H: np.ndarray, floor: float = 0.0) -> np.ndarray:
     a, b, c = H[:, 0, 0], 0.5 * (H[:, 0, 1] + H[:, 1, 0]), H[:, 1, 1]
     m, r = 0.5 * (a + c), np.sqrt(0.25 * (a - c) ** 2 + b * b)
     l1, l2 = m + r, m - r                              # eigenvalues, l1 >= l2
-    th = 0.5 * np.arctan2(2 * b, a - c)                # eigenvector of l1: (cos th, sin th)
-    e1 = np.stack([np.cos(th), np.sin(th)], 1)
-    e2 = np.stack([-np.sin(th), np.cos(th)], 1)
+    th = 0.5 * np.arctan2(2 * b, a - c)                # eigenvector of l1: (cos th, sin th), of l2: (-sin th, cos th)
+    co, si = np.cos(th), np.sin(th)
     l1, l2 = np.maximum(l1, floor), np.maximum(l2, floor)
-    return (l1[:, None, None] * e1[:, :, None] * e1[:, None, :] + l2[:, None, None] * e2[:, :, None] * e2[:, None, :])
+    # l1 e1 e1^T + l2 e2 e2^T entry by entry (the same products in the same order as the outer-product form)
+    u1, u2, ns = l1 * co, l2 * -si, -si
+    v1, v2 = l1 * si, l2 * co
+    out = np.empty((len(H), 2, 2))
+    out[:, 0, 0] = u1 * co + u2 * ns
+    out[:, 0, 1] = u1 * si + u2 * co
+    out[:, 1, 0] = v1 * co + v2 * ns
+    out[:, 1, 1] = v1 * si + v2 * co
+    return out
 
 
 @dataclass
@@ -96,10 +103,15 @@ class EdgeTerm:
             total += float(E.sum())
             if not ok.any():
                 continue
-            gn = np.linalg.norm(grad[ok], axis=1)
-            A = (psd2(H[ok]) + (self.curv_floor * gn)[:, None, None] * np.eye(2)[None]) * self.weight
-            g = grad[ok] * self.weight
-            out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j]), Jc[ok], Jo[ok], A, g))
+            if not ok.all():       # (all valid is the common case: no copies then)
+                grad, H, Jc, Jo = grad[ok], H[ok], Jc[ok], Jo[ok]
+            gn = np.sqrt(grad[:, 0] * grad[:, 0] + grad[:, 1] * grad[:, 1])    # = np.linalg.norm(grad, axis=1)
+            A = psd2(H)
+            fl = self.curv_floor * gn
+            A[:, 0, 0] += fl
+            A[:, 1, 1] += fl
+            A *= self.weight
+            out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j]), Jc, Jo, A, grad * self.weight))
         return self.weight * total, out
 
     def mean_cost(self, pb: BundleProblem) -> float:
@@ -116,7 +128,7 @@ def robust_cost_weights(r: np.ndarray, rho: float, floor_px: float, cap_px: floa
     floor^rho (1 - rho/2) + (rho/2) floor^(rho-2) s^2. So the cost is C1 everywhere (s^rho alone
     has a cusp at 0 where every step raises the cost of the matches that are already exact) and
     the IRLS weight w = rho max(s, floor)^(rho-2) gives its exact gradient -w r."""
-    s = np.linalg.norm(r, axis=1)
+    s = np.sqrt(r[:, 0] * r[:, 0] + r[:, 1] * r[:, 1])      # = np.linalg.norm(r, axis=1), bit for bit
     inl = s < cap_px
     c = np.minimum(s, cap_px) ** rho
     if floor_px > 0:
@@ -172,9 +184,12 @@ class _RobustReprojectionTerm(ABC):
             ok = inl & valid
             if not ok.any():
                 continue
-            A = (w[ok] * self.weight)[:, None, None] * np.eye(2)[None]
-            g = -(w[ok] * self.weight)[:, None] * r[ok]
-            out.append(Linearization(ba, bb, Ja[ok], Jb[ok], A, g))
+            if not ok.all():
+                w, r, Ja, Jb = w[ok], r[ok], Ja[ok], Jb[ok]
+            ww = w * self.weight
+            A = np.zeros((len(ww), 2, 2))
+            A[:, 0, 0] = A[:, 1, 1] = ww
+            out.append(Linearization(ba, bb, Ja, Jb, A, -ww[:, None] * r))
         return self.weight * total, out
 
 
