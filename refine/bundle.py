@@ -58,7 +58,7 @@ class RefineOptions:
     max_iters: int = 6
     coarse_iters: int = 2
     inner_iters: int = 4
-    edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px (one image: (4, 2, 1)) scaled by width / 640 (>= 1)
+    edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px (one viewpoint: (4, 2, 1)) scaled by width / 640
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
@@ -72,6 +72,7 @@ class RefineOptions:
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     max_extrapolate: int = 3          # line search: up to N doublings of an accepted Newton step
     extra_iters: int = 4              # finest level: up to N more outer iterations while a pose still moves
+    min_baseline_deg: float = 5.0     # keyframes seen within a narrower angle (from the init) start at the 4 px level
     extend_mm: float = 0.25           # ... by more than this (mm) or
     extend_deg: float = 0.05          # ... this (deg) per outer iteration
     n_matches: int = 1000
@@ -332,6 +333,18 @@ def auto_sigmas(base: tuple[float, ...], width: int) -> tuple[float, ...]:
     return tuple(out)
 
 
+def viewing_baseline_deg(T_c: np.ndarray, T_m: np.ndarray) -> float:
+    """Largest angle (deg) between the directions from the scene centre (mean object position) to
+    any two camera centres: 0 for one view or a camera that only turns; the shared YCB-V clips
+    (millimetres of motion at ~1 m) give well under a degree."""
+    if len(T_c) < 2 or len(T_m) == 0:
+        return 0.0
+    C = -np.einsum("nji,nj->ni", T_c[:, :3, :3], T_c[:, :3, 3])     # camera centres in the world
+    d = C - T_m[:, :3, 3].mean(axis=0)
+    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
+    return float(np.degrees(np.arccos(np.clip((d @ d.T).min(), -1.0, 1.0))))
+
+
 def _keyframes(n: int, step: int) -> list[int]:
     if step is None or step <= 1 or n <= 2:
         return list(range(n))
@@ -426,10 +439,12 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     pb.obj_known = known
     stage = _Stage(pb, models, opt, log, stats, list(range(len(kf))),
                    _pairs(list(range(len(kf))), opt.temporal_neighbours) if len(kf) > 1 else [], "keyframes")
-    # one image: depth is seen only through the apparent size, and the coarsest blur (which merges
-    # neighbouring edges and so shifts the apparent size) pulls it away with no second view to
-    # pull it back -- start one level finer
-    base = (8.0, 4.0, 2.0, 1.0) if len(kf) > 1 else (4.0, 2.0, 1.0)
+    # one image, or views from (nearly) one viewpoint: depth is seen only through the apparent size,
+    # and the coarsest blur (which merges neighbouring edges and so shifts the apparent size) pulls it
+    # away with no other viewpoint to pull it back -- start one level finer
+    stats["baseline_deg"] = round(viewing_baseline_deg(pb.T_c, pb.T_m[known]), 3)
+    narrow = len(kf) == 1 or stats["baseline_deg"] < opt.min_baseline_deg
+    base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
     terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
     converged = stage.converged
     visible = {(views[kf[i]].im_id, obj_ids[j]) for (i, j) in stage.visible}

@@ -153,3 +153,26 @@ def test_keyframes_then_camera_only_refinement():
     assert ek["PRJ"] < 1.0 and e["PRJ"] < 1.0, (ek, e)
     assert set(res.sigma["cameras"]) == {1, 2, 3, 4, 5, 6}
     assert any(rec["stage"].startswith("frames") for rec in res.log)
+
+
+def test_viewing_baseline_decides_the_blur_schedule(scene4):
+    """The angle under which the scene centre sees the keyframe cameras: the procedural 30 deg arc
+    is wide (coarse-to-fine from 8 px), the same view repeated is narrow (from 4 px)."""
+    from ycbvss.refine.bundle import viewing_baseline_deg
+
+    ps, imgs, gt, pts = scene4
+    Tc = np.stack([f.T_w2c for f in ps.frames])
+    Tm = np.stack(list(ps.T_m2w.values()))
+    wide = viewing_baseline_deg(Tc, Tm)
+    assert 25.0 < wide < 35.0, wide
+    assert viewing_baseline_deg(np.stack([Tc[0], Tc[0]]), Tm) < 1e-3
+    f = ps.frames[0]
+    init = {(im, o): T for (im, o), T in gt.items()}
+    two = Scene(1, [f, f.__class__(**{**f.__dict__, "im_id": f.im_id + 100})])
+    res = refine_scene(two, ps.models, {**init, **{(f.im_id + 100, o): T for (im, o), T in init.items()
+                                                   if im == f.im_id}},
+                       RefineOptions(max_iters=1, coarse_iters=1, extra_iters=0, compute_uncertainty=False),
+                       images={f.im_id: imgs[f.im_id], f.im_id + 100: imgs[f.im_id]})
+    assert res.stats["baseline_deg"] < 1.0
+    assert sorted({r["stage"].split(" outer")[0] for r in res.log if r["stage"].startswith("keyframes")}) == \
+        ["keyframes sigma=1", "keyframes sigma=2"]       # 320 px wide: (4, 2, 1) px levels scale to (2, 1)
