@@ -38,7 +38,8 @@ class RefineOptions:
     ``keyframe_step`` N > 1: optimise every N-th frame jointly, then place and refine the others
     (camera only). ``edge_sigmas_px``: coarse-to-fine blur of the edge field. ``max_iters``: outer
     iterations (re-render + re-sample) at the finest level (plus up to ``extra_iters`` while a pose
-    still moves by more than ``extend_mm`` / ``extend_deg``), ``coarse_iters`` at each coarser one;
+    still drifts: moves by more than ``extend_mm`` in a steady direction), ``coarse_iters`` at each
+    coarser one;
     ``inner_iters``: damped Newton steps per outer iteration, each accepted step extended by up to
     ``max_extrapolate`` doublings while the cost keeps falling. ``fix_cameras``: use the frames'
     T_w2c as known cameras and refine the objects only.
@@ -71,10 +72,9 @@ class RefineOptions:
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     max_extrapolate: int = 3          # line search: up to N doublings of an accepted Newton step
-    extra_iters: int = 4              # finest level: up to N more outer iterations while a pose still moves
+    extra_iters: int = 12             # finest level: up to N more outer iterations while a pose still drifts
     min_baseline_deg: float = 5.0     # keyframes seen within a narrower angle (from the init) start at the 4 px level
-    extend_mm: float = 0.25           # ... by more than this (mm) or
-    extend_deg: float = 0.05          # ... this (deg) per outer iteration
+    extend_mm: float = 0.1            # ... by more than this (mm) per outer iteration, in a steady direction
     n_matches: int = 1000
     match_erode_px: int = 6
     flow_margin_px: int = 24
@@ -263,6 +263,7 @@ class _Stage:
                                   opt.edge_interp, opt.edge_colour) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
             n_cap = n_outer + (opt.extra_iters if li == len(sigmas) - 1 else 0)
+            prev_move = None
             for outer in range(n_cap):
                 renders = {i: self.render(i) for i in self.term_views}
                 n_built += 1
@@ -277,12 +278,17 @@ class _Stage:
                 self._t("solve_s", time.perf_counter() - t0)
                 dmm, ddeg = _max_change(st, pb.state())
                 self.stats["last_change_mm"], self.stats["last_change_deg"] = round(dmm, 4), round(ddeg, 4)
+                move = _translation_change(st, pb.state())
+                drifting = _drifting(move, prev_move, opt.extend_mm) if prev_move is not None else True
+                prev_move = move
                 if dmm < opt.pose_tol_mm and ddeg < opt.pose_tol_deg:
                     self.converged = True
                     break
                 self.converged = conv
-                if outer + 1 >= n_outer and dmm < opt.extend_mm and ddeg < opt.extend_deg:
-                    break     # the extra iterations only while some pose still really moves
+                if outer + 1 >= n_outer and not drifting:
+                    break     # the extra iterations only while some pose still drifts one way
+            if li == len(sigmas) - 1:
+                self.stats["finest_iters"] = outer + 1
         return terms
 
 
@@ -302,6 +308,21 @@ def _view_matches(raw: np.ndarray, img: np.ndarray, masks: list[np.ndarray], flo
     """Flow matches template -> image of one view (crop coordinates), see :func:`flow_matches`."""
     return flow_matches(normalize_for_flow(raw), normalize_for_flow(img), masks, flow, corner_image=raw,
                         dst_me=dst_me)
+
+
+def _translation_change(a, b) -> np.ndarray:
+    """Translation change (K, 3) mm of every camera and object between two states."""
+    return np.concatenate([b[0][:, :3, 3] - a[0][:, :3, 3], b[1][:, :3, 3] - a[1][:, :3, 3]])
+
+
+def _drifting(move: np.ndarray, prev: np.ndarray, min_mm: float, min_cos: float = 0.7) -> bool:
+    """Some camera or object still travels: it moved more than ``min_mm`` in this outer iteration,
+    in nearly the direction of the previous one (cosine > ``min_cos``). The jitter that redrawing
+    the edge samples causes has no preferred direction; a pose sliding along a shallow valley
+    (depth against tilt of a far object seen from one viewpoint) keeps its direction."""
+    n1, n0 = np.linalg.norm(move, axis=1), np.linalg.norm(prev, axis=1)
+    cos = (move * prev).sum(axis=1) / np.maximum(n1 * n0, 1e-12)
+    return bool(np.any((n1 > min_mm) & (cos > min_cos)))
 
 
 def _bbox(mask: np.ndarray, margin: int) -> tuple[int, int, int, int]:
