@@ -263,7 +263,7 @@ class _Stage:
                                   opt.edge_interp, opt.edge_colour) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
             n_cap = n_outer + (opt.extra_iters if li == len(sigmas) - 1 else 0)
-            prev_move = None
+            prev_move, calm = None, 0
             for outer in range(n_cap):
                 renders = {i: self.render(i) for i in self.term_views}
                 n_built += 1
@@ -280,13 +280,14 @@ class _Stage:
                 self.stats["last_change_mm"], self.stats["last_change_deg"] = round(dmm, 4), round(ddeg, 4)
                 move = _translation_change(st, pb.state())
                 drifting = _drifting(move, prev_move, opt.extend_mm) if prev_move is not None else True
+                calm = 0 if drifting else calm + 1
                 prev_move = move
                 if dmm < opt.pose_tol_mm and ddeg < opt.pose_tol_deg:
                     self.converged = True
                     break
                 self.converged = conv
-                if outer + 1 >= n_outer and not drifting:
-                    break     # the extra iterations only while some pose still drifts one way
+                if outer + 1 >= n_outer and calm >= 2:
+                    break     # the extra iterations only while some pose still drifts one way (2 calm ones end it)
             if li == len(sigmas) - 1:
                 self.stats["finest_iters"] = outer + 1
         return terms
