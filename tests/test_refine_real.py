@@ -39,5 +39,5 @@ def test_refining_original_annotations_improves_edge_alignment(ycbv_root):
         stats[name] = (float(np.mean(ec)), float(np.mean(iou)))
     (e0, iou0), (e1, iou1) = stats["orig"], stats["refined"]
     assert iou0 > 0.97                       # labels = renders of the original annotation
-    assert e1 < e0 - 0.03, stats             # measured: 0.846 -> 0.756 (frames 1, 3, 5), 0.845 -> 0.753 (all 5)
+    assert e1 < e0 - 0.03, stats             # measured: 0.846 -> 0.747 (frames 1, 3, 5), 0.845 -> 0.743 (all 5)
     assert iou1 > 0.85, stats                # moves of a few px away from the original annotation
