@@ -64,11 +64,9 @@ class RefineOptions:
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
     edge_norm_percentile: float = 100.0
-    edge_linear_light: bool = False   # edge field from linear-light luminance (sRGB decoded)
     edge_interp: str = "cubic"        # "cubic" (Catmull-Rom) or "linear" sampling of the edge field
     edge_colour: bool = True          # edge strength from the three colour channels, not the grey value
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
-    crease_band_px: int = 0           # drop crease samples with another edge 2..N px across them (0: keep all)
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     max_extrapolate: int = 3          # line search: up to N doublings of an accepted Newton step
@@ -170,7 +168,6 @@ class _Stage:
             groups = []
             # the image work per view runs on a thread pool; the samples are drawn in view order
             jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
-                                                crease_band_px=opt.crease_band_px,
                                                 fold_min_angle_deg=self.fold_angle))
                     for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
             for i, vr, job in jobs:
@@ -259,8 +256,8 @@ class _Stage:
             finest = li == len(sigmas) - 1 and len(sigmas) > 1
             self.fold_angle = 180.0 if (finest and not opt.folds_at_finest) else opt.fold_min_angle_deg
             t0 = time.perf_counter()
-            fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_linear_light,
-                                  opt.edge_interp, opt.edge_colour) for i in self.term_views}
+            fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_interp,
+                                  opt.edge_colour) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
             n_cap = n_outer + (opt.extra_iters if li == len(sigmas) - 1 else 0)
             prev_move, calm = None, 0
@@ -276,9 +273,10 @@ class _Stage:
                 t0 = time.perf_counter()
                 conv, lam = run_lm(pb, terms, sopt, self.log, stage=f"{self.name} sigma={sigma:g} outer={outer}", lam=lam)
                 self._t("solve_s", time.perf_counter() - t0)
-                dmm, ddeg = _max_change(st, pb.state())
+                st1 = pb.state()
+                move = _translation_change(st, st1)
+                dmm, ddeg = _max_change(st, st1, move)
                 self.stats["last_change_mm"], self.stats["last_change_deg"] = round(dmm, 4), round(ddeg, 4)
-                move = _translation_change(st, pb.state())
                 drifting = _drifting(move, prev_move, opt.extend_mm) if prev_move is not None else True
                 calm = 0 if drifting else calm + 1
                 prev_move = move
@@ -337,12 +335,14 @@ def _bbox(mask: np.ndarray, margin: int) -> tuple[int, int, int, int]:
             max(int(xs[0]) - margin, 0), min(int(xs[-1]) + 1 + margin, W))
 
 
-def _max_change(a, b) -> tuple[float, float]:
-    T0 = np.concatenate([a[0], a[1]])
-    T1 = np.concatenate([b[0], b[1]])
-    dt = float(np.abs(T0[:, :3, 3] - T1[:, :3, 3]).max()) if len(T0) else 0.0
-    dr = float(rotation_angle_deg(np.swapaxes(T0[:, :3, :3], 1, 2) @ T1[:, :3, :3]).max()) if len(T0) else 0.0
-    return dt, dr
+def _max_change(a, b, move: np.ndarray) -> tuple[float, float]:
+    """Largest translation (mm, from ``move`` = :func:`_translation_change`) and rotation (deg)
+    change of any camera or object between two states."""
+    if not len(move):
+        return 0.0, 0.0
+    R0 = np.concatenate([a[0], a[1]])[:, :3, :3]
+    R1 = np.concatenate([b[0], b[1]])[:, :3, :3]
+    return float(np.abs(move).max()), float(rotation_angle_deg(np.swapaxes(R0, 1, 2) @ R1).max())
 
 
 def auto_sigmas(base: tuple[float, ...], width: int) -> tuple[float, ...]:

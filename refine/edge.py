@@ -59,61 +59,37 @@ class EdgeField:
         return self.data.shape[:2]
 
 
-def gradient_magnitude(gray: np.ndarray, sigma_px: float) -> np.ndarray:
-    """|grad (G_sigma * I)| (H, W) float32 (Sobel on the Gaussian-blurred image)."""
-    g = cv2.GaussianBlur(gray, (0, 0), sigmaX=max(sigma_px, 0.3)) if sigma_px > 0 else gray
-    gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3) / 8.0
-    gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3) / 8.0
-    return np.sqrt(gx * gx + gy * gy)
-
-
-def srgb_to_linear_gray(image: np.ndarray) -> np.ndarray:
-    """sRGB uint8 (H, W, 3) or gray (H, W) -> linear-light luminance float32 in [0, 255]."""
-    img = np.asarray(image).astype(np.float32) / 255.0
-    lin = np.where(img <= 0.04045, img / 12.92, ((img + 0.055) / 1.055) ** 2.4)
-    if lin.ndim == 3:
-        lin = lin[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)
-    return (255.0 * lin).astype(np.float32)
-
-
-def colour_gradient_magnitude(rgb: np.ndarray, sigma_px: float) -> np.ndarray:
-    """Colour edge strength (H, W) float32: the Frobenius norm of the colour Jacobian of the
-    Gaussian-blurred image, sqrt(sum_c |grad I_c|^2 / 3) (equal to |grad I| on a grey image).
-    A yellow bottle on a white table is almost invisible in grey levels but not in the blue channel."""
-    f = np.asarray(rgb, dtype=np.float32)[..., :3]
+def gradient_magnitude(image: np.ndarray, sigma_px: float) -> np.ndarray:
+    """Edge strength (H, W) float32 of the Gaussian-blurred image (Sobel). Grey (H, W): |grad I|;
+    colour (H, W, 3): the Frobenius norm of the colour Jacobian, sqrt(sum_c |grad I_c|^2 / 3)
+    (equal to |grad I| when the channels agree). A yellow bottle on a white table is almost
+    invisible in grey levels but not in the blue channel."""
+    f = np.asarray(image, dtype=np.float32)
+    if f.ndim == 3:
+        f = f[..., :3]
     g = cv2.GaussianBlur(f, (0, 0), sigmaX=max(sigma_px, 0.3)) if sigma_px > 0 else f
     gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3) / 8.0
     gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3) / 8.0
-    s = gx * gx + gy * gy        # channel sum written out: numpy's reduction over a length-3 last axis is ~10x slower
-    return np.sqrt((s[..., 0] + s[..., 1] + s[..., 2]) / 3.0)
+    s = gx * gx + gy * gy
+    if s.ndim == 3:              # channel sum written out: numpy's reduction over a length-3 last axis is ~10x slower
+        s = (s[..., 0] + s[..., 1] + s[..., 2]) / 3.0
+    return np.sqrt(s)
 
 
 def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float = 100.0,
-               linear_light: bool = False, interp: str = "cubic", colour: bool = False) -> EdgeField:
+               interp: str = "cubic", colour: bool = False) -> EdgeField:
     """Edge field of an image (RGB or gray) at blur ``sigma_px``.
 
-    ``colour``: edge strength from all three channels (:func:`colour_gradient_magnitude`) instead
-    of the grey value; objects whose colour differs from the background mostly in hue (same
-    brightness) keep their silhouettes.
-
-    ``linear_light``: take the gradient of the linear-light luminance (sRGB decoded) instead of the
-    gamma-encoded grey value. A camera integrates light linearly, so an anti-aliased or blurred
-    silhouette crosses 50 % coverage at the true boundary in linear light; the sRGB curve moves
-    the gradient maximum towards the darker side (about 0.1-0.2 px at sigma = 1 px), which biases
-    the contour term in depth.
+    ``colour``: edge strength from all three channels (:func:`gradient_magnitude` of the RGB
+    image) instead of the grey value; objects whose colour differs from the background mostly in
+    hue (same brightness) keep their silhouettes.
 
     ``norm_percentile`` = 100 is the paper's normalisation by the maximum gradient; a lower
     percentile (robust maximum, values above it clip to E = 0) keeps one very strong edge from
     flattening all others. A uniform image (max gradient 0) gives E = 1 everywhere and zero
     derivatives (no pull)."""
     img = np.asarray(image)
-    if colour and img.ndim == 3:
-        if linear_light:
-            x = img[..., :3].astype(np.float32) / 255.0
-            img = 255.0 * np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
-        mag = colour_gradient_magnitude(img, sigma_px)
-    else:
-        mag = gradient_magnitude(srgb_to_linear_gray(image) if linear_light else to_gray_f32(image), sigma_px)
+    mag = gradient_magnitude(img if (colour and img.ndim == 3) else to_gray_f32(img), sigma_px)
     mx = float(mag.max()) if norm_percentile >= 100 else float(np.percentile(mag, norm_percentile))
     if mx <= 1e-6:
         mx = float(mag.max())
@@ -298,24 +274,16 @@ def _contour_points(inst, depth, label, full_shape, origin):
 
 
 def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 25.0,
-                 depth_jump_rel: float = 0.03, inst: np.ndarray | None = None,
-                 band_px: int = 0, other_edges: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 depth_jump_rel: float = 0.03, inst: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Geometric edges of a rendered template (H, W) bool: the normal turns by more than
     ``min_angle_deg`` (>= 180: folds off, self-occlusions only) or the depth jumps (self-occlusion)
     towards the right/lower neighbour; the
     edge is marked on the nearer pixel with an offset (H, W, 2) of half a pixel towards the other
     one (the edge lies between the pixel centres). These are the shading/crease edges a photo
-    shows even on textureless objects (box edges, a mug's rim).
-
-    ``band_px`` > 0 drops crease pixels that have another geometric edge (a crease of another
-    fold line, a silhouette or object boundary, or a pixel of ``other_edges``) at 2..band_px px
-    across the crease (along the axis on which it was detected): two fold lines that close (a
-    mug's 2 px rim, a box face seen at a grazing angle) merge into one blurred image edge, and
-    pulling both onto it tilts the object."""
+    shows even on textureless objects (box edges, a mug's rim)."""
     H, W = depth.shape
     out = np.zeros((H, W), bool)
     off = np.zeros((H, W, 2), np.float32)
-    axis = np.zeros((H, W, 2), bool)          # detected across u (columns) / across v (rows)
     c = np.cos(np.radians(min_angle_deg))
     for dv, du in ((0, 1), (1, 0)):
         n0, n1 = normal[: H - dv, : W - du], normal[dv:, du:]
@@ -334,30 +302,6 @@ def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 2
         out[dv:, du:] |= b
         off[: H - dv, : W - du][a] = (0.5 * du, 0.5 * dv)
         off[dv:, du:][b] = (-0.5 * du, -0.5 * dv)
-        k = 0 if du else 1
-        axis[: H - dv, : W - du, k] |= a
-        axis[dv:, du:, k] |= b
-    if band_px >= 2 and out.any():
-        geo = out.copy()
-        if inst is not None:                     # object boundaries (silhouettes, occlusions)
-            bnd = np.zeros((H, W), bool)
-            bnd[:, :-1] |= inst[:, :-1] != inst[:, 1:]
-            bnd[:, 1:] |= inst[:, :-1] != inst[:, 1:]
-            bnd[:-1] |= inst[:-1] != inst[1:]
-            bnd[1:] |= inst[:-1] != inst[1:]
-            geo |= bnd
-        if other_edges is not None:
-            geo |= other_edges
-        near = np.zeros((H, W), bool)
-        pad = np.pad(geo, band_px)
-        for k, (su, sv) in enumerate(((1, 0), (0, 1))):
-            hit = np.zeros((H, W), bool)
-            for dist in range(2, band_px + 1):
-                for sgn in (-1, 1):
-                    y0, x0 = band_px + sgn * dist * sv, band_px + sgn * dist * su
-                    hit |= pad[y0:y0 + H, x0:x0 + W]
-            near |= axis[..., k] & hit
-        out &= ~near
     return out, off
 
 
@@ -426,13 +370,11 @@ def _labels_box(inst: np.ndarray, margin_px: int) -> tuple[int, int, int, int] |
             min(ys[-1] + margin_px + 1, H), min(xs[-1] + margin_px + 1, W))
 
 
-def all_contour_points(inst: np.ndarray, depth: np.ndarray, return_normals: bool = False):
-    """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,) and, with
-    ``return_normals``, the outward unit normals (N, 2)."""
+def all_contour_points(inst: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,)."""
     box = _labels_box(inst, 1)
     if box is None:
-        e = (np.zeros((0, 2)), np.zeros(0), np.zeros(0, int))
-        return e + (np.zeros((0, 2)),) if return_normals else e
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
     y0, x0, y1, x1 = box
     ic, dc = inst[y0:y1, x0:x1], depth[y0:y1, x0:x1]
     h, w = ic.shape
@@ -462,43 +404,14 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray, return_normals: bool
     n = np.linalg.norm(d, axis=1, keepdims=True)
     d = np.where(n > 0, d / np.maximum(n, 1e-9), 0.0)
     uv = np.stack([u + x0, v + y0], 1).astype(np.float64) + 0.5 * d
-    if return_normals:
-        return uv, dc[v, u].astype(np.float64), ic[v, u].astype(int), d.astype(np.float64)
     return uv, dc[v, u].astype(np.float64), ic[v, u].astype(int)
-
-
-def relocate_to_edge(gray: np.ndarray, uv: np.ndarray, normal: np.ndarray, sigma_px: float = 1.0,
-                     reach_px: float = 1.5) -> np.ndarray:
-    """Move points uv (N, 2) along their unit normals (N, 2) to the sub-pixel maximum of the
-    gradient magnitude of ``gray`` (blurred by ``sigma_px``) within +-``reach_px``.
-
-    Used on the rendered template composited over the image: a silhouette whose rim the texture
-    shows darker or lighter (or whose background is cluttered) has its strongest gradient off
-    the geometric contour, in the template as in the image; sampling the template's own edge
-    position instead of the geometric one removes that bias from the contour term. Points whose
-    profile has no interior maximum keep their position."""
-    if len(uv) == 0:
-        return uv
-    mag = gradient_magnitude(gray, sigma_px)[..., None]
-    ts = np.arange(-reach_px, reach_px + 1e-9, 0.25)
-    prof = np.stack([sample_bilinear(mag, uv + t * normal)[0][:, 0] for t in ts], 1)
-    k = prof.argmax(1)
-    ok = (k > 0) & (k < len(ts) - 1)
-    kk = np.clip(k, 1, len(ts) - 2)
-    r = np.arange(len(uv))
-    m0, mm, mp = prof[r, kk], prof[r, kk - 1], prof[r, kk + 1]
-    den = mm - 2 * m0 + mp
-    off = np.where(den < -1e-9, 0.5 * (mm - mp) / np.where(den < -1e-9, den, -1.0), 0.0)
-    t = ts[kk] + 0.25 * np.clip(off, -1.0, 1.0)
-    return uv + np.where(ok, t, 0.0)[:, None] * normal
 
 
 def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, normal: np.ndarray | None,
                         canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2,
-                        crease_band_px: int = 0, fold_min_angle_deg: float = 25.0
-                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        fold_min_angle_deg: float = 25.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,).
-    ``normal`` None: no crease edges; ``crease_band_px``: see :func:`crease_edges`."""
+    ``normal`` None: no crease edges; ``fold_min_angle_deg``: see :func:`crease_edges`."""
     box = _labels_box(inst, 2)
     if box is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
@@ -514,7 +427,7 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     dep, labs = depth[v + y0, u + x0], ic[v, u]
     if normal is not None:
         ce, off = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1], min_angle_deg=fold_min_angle_deg,
-                               inst=ic, band_px=crease_band_px, other_edges=edges)
+                               inst=ic)
         ce &= inside & ~edges
         v2, u2 = np.nonzero(ce)
         uv = np.concatenate([uv, np.stack([u2, v2], 1) + off[v2, u2]])

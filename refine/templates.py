@@ -107,14 +107,15 @@ class EdgeCandidates:
     l_i: np.ndarray
 
 
-def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True, crease_band_px: int = 0,
+def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True,
                          fold_min_angle_deg: float = 25.0) -> EdgeCandidates:
-    """The image work of :func:`view_edge_samples` (no random numbers drawn, so views can be
-    processed concurrently): contour and interior edge pixels of every rendered object."""
+    """Contour and interior edge pixels of every rendered object of a view (no random numbers
+    drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
+    ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
+    self-occlusions) to the interior candidates, see :func:`ycbvss.refine.edge.crease_edges`."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm)
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal if creases else None,
-                                         erode_px=erode_px, crease_band_px=crease_band_px,
-                                         fold_min_angle_deg=fold_min_angle_deg)
+                                         erode_px=erode_px, fold_min_angle_deg=fold_min_angle_deg)
     return EdgeCandidates(uv_c, d_c, l_c, uv_i, d_i, l_i)
 
 
@@ -138,16 +139,6 @@ def select_edge_samples(vr: ViewRender, K: np.ndarray, cands: EdgeCandidates, n_
         out[j] = backproject_px(K, uv[ok], d[ok]) @ Pinv[:3, :3].T + Pinv[:3, 3]
     return out
 
-
-def view_edge_samples(vr: ViewRender, K: np.ndarray, n_max: int, rng: np.random.Generator,
-                      erode_px: int = 2, creases: bool = True, crease_band_px: int = 0,
-                      fold_min_angle_deg: float = 25.0) -> dict[int, np.ndarray]:
-    """:func:`edge_samples` for every rendered object of the view in one pass: {j: X (N, 3) mm}.
-    ``creases``: add geometric crease edges to the interior samples (``crease_band_px``: drop
-    those with another edge that close across them, see :func:`ycbvss.refine.edge.crease_edges`).
-    = :func:`select_edge_samples` of :func:`view_edge_candidates`."""
-    cands = view_edge_candidates(vr, erode_px, creases, crease_band_px, fold_min_angle_deg)
-    return select_edge_samples(vr, K, cands, n_max, rng)
 
 
 def object_mask(vr: ViewRender, j: int, erode_px: int = 2) -> np.ndarray:

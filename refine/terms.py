@@ -166,6 +166,10 @@ class _RobustReprojectionTerm(ABC):
     def _linear(self, pb: BundleProblem, gr) -> tuple[np.ndarray, int, int, np.ndarray, np.ndarray, np.ndarray]:
         """(uv, block_a, block_b, J_a (N, 2, 6), J_b (N, 2, 6), valid) of the group."""
 
+    def n_obs(self) -> int:
+        """Number of scalar residuals (two per matched pixel ``gr.x``)."""
+        return int(2 * sum(len(gr.x) for gr in self.groups))
+
     def cost(self, pb: BundleProblem) -> float:
         tot = 0.0
         for gr in self.groups:
@@ -204,9 +208,6 @@ class PointTerm(_RobustReprojectionTerm):
     cap_px: float = 30.0
     name: str = "point"
 
-    def n_obs(self) -> int:
-        return int(2 * sum(len(gr.X) for gr in self.groups))
-
     def _project(self, pb: BundleProblem, gr: PointGroup):
         return project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
 
@@ -233,9 +234,6 @@ class TemporalTerm(_RobustReprojectionTerm):
     floor_px: float = 0.5
     cap_px: float = 30.0
     name: str = "temporal"
-
-    def n_obs(self) -> int:
-        return int(2 * sum(len(gr.x) for gr in self.groups))
 
     def _project(self, pb: BundleProblem, gr: TemporalGroup):
         return project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ inv_T(pb.T_c[gr.k]), gr.Y_k)
