@@ -15,7 +15,7 @@ from ycbvss.errors import YcbvssError
 from ycbvss.geometry.se3 import interpolate_T, inv_T
 from ycbvss.geometry.so3 import is_rotation, rotation_angle_deg
 
-from .edge import edge_field
+from .edge import edge_field, gradient_magnitude
 from .jacobians import backproject_px
 from .init import initialise, sample_model_points, symmetry_transforms
 from .matching import FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow
@@ -24,6 +24,7 @@ from .solver import SolverOptions, covariance, run_lm
 from .templates import (composite, ensure_meshes, get_renderer, object_mask, render_view, select_edge_samples,
                         view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
+from .confidence import classify, contour_offset_px, sigma_add_mm
 from .uncertainty import pose_sigmas
 
 
@@ -98,7 +99,10 @@ class RefineResult:
     per-iteration dicts; ``converged``; ``missing_objects`` objects without any init pose;
     ``visible`` (im_id, obj_id) pairs that had image terms (the others' poses follow from the scene
     consistency only); ``stats`` timings (s), sizes and the last outer iteration's largest pose
-    change (``last_change_mm``/``last_change_deg``; ``converged`` = both below the tolerances)."""
+    change (``last_change_mm``/``last_change_deg``; ``converged`` = both below the tolerances).
+    ``status[(im_id, obj_id)]`` in {converged, uncertain, failed}, ``confidence`` in [0, 1] and the
+    ``reasons`` for it, ``quality[obj_id]`` (contour residual px, radius, last move): see
+    :mod:`ycbvss.refine.confidence`."""
 
     poses: dict
     T_w2c: dict
@@ -110,6 +114,10 @@ class RefineResult:
     missing_objects: list = field(default_factory=list)
     visible: set = field(default_factory=set)
     stats: dict = field(default_factory=dict)
+    status: dict = field(default_factory=dict)
+    confidence: dict = field(default_factory=dict)
+    reasons: dict = field(default_factory=dict)
+    quality: dict = field(default_factory=dict)
 
 
 def _valid_pose(T) -> bool:
@@ -134,6 +142,10 @@ class _Stage:
         self.converged = False
         self._point_term = None
         self.fold_angle = opt.fold_min_angle_deg
+        # last outer iteration's change of every camera / object: (mm, deg) arrays
+        self.numerical_failure = False    # a linear system stayed singular / non-finite at every damping
+        self.cam_move = (np.zeros(len(pb.T_c)), np.zeros(len(pb.T_c)))
+        self.obj_move = (np.zeros(len(pb.T_m)), np.zeros(len(pb.T_m)))
 
     def _t(self, key: str, dt: float) -> None:
         self.stats[key] = self.stats.get(key, 0.0) + dt
@@ -245,6 +257,16 @@ class _Stage:
             self._t("temporal_matching_s", time.perf_counter() - t0)
         return terms
 
+    def _record_moves(self, a, b, move: np.ndarray) -> None:
+        """Per camera and per object translation (mm) and rotation (deg) change of one outer iteration."""
+        nc = len(a[0])
+        mm = np.linalg.norm(move, axis=1)
+        R0 = np.concatenate([a[0], a[1]])[:, :3, :3]
+        R1 = np.concatenate([b[0], b[1]])[:, :3, :3]
+        deg = np.atleast_1d(rotation_angle_deg(np.swapaxes(R0, 1, 2) @ R1)) if len(R0) else np.zeros(0)
+        self.cam_move = (mm[:nc], deg[:nc])
+        self.obj_move = (mm[nc:], deg[nc:])
+
     def run(self, sigmas) -> list:
         pb, opt = self.pb, self.opt
         terms = []
@@ -271,11 +293,15 @@ class _Stage:
                     return terms
                 st = pb.state()
                 t0 = time.perf_counter()
+                n_log = len(self.log)
                 conv, lam = run_lm(pb, terms, sopt, self.log, stage=f"{self.name} sigma={sigma:g} outer={outer}", lam=lam)
+                if any(e.get("singular", 0) >= sopt.max_tries for e in self.log[n_log:]):
+                    self.numerical_failure = True
                 self._t("solve_s", time.perf_counter() - t0)
                 st1 = pb.state()
                 move = _translation_change(st, st1)
                 dmm, ddeg = _max_change(st, st1, move)
+                self._record_moves(st, st1, move)
                 self.stats["last_change_mm"], self.stats["last_change_deg"] = round(dmm, 4), round(ddeg, 4)
                 drifting = _drifting(move, prev_move, opt.extend_mm) if prev_move is not None else True
                 calm = 0 if drifting else calm + 1
@@ -343,6 +369,43 @@ def _max_change(a, b, move: np.ndarray) -> tuple[float, float]:
     R0 = np.concatenate([a[0], a[1]])[:, :3, :3]
     R1 = np.concatenate([b[0], b[1]])[:, :3, :3]
     return float(np.abs(move).max()), float(rotation_angle_deg(np.swapaxes(R0, 1, 2) @ R1).max())
+
+
+def _id_list(ids: list[int]) -> str:
+    """'3' / '1-5' / '1, 4, 9' for a sorted id list."""
+    if len(ids) > 1 and ids == list(range(ids[0], ids[-1] + 1)):
+        return f"{ids[0]}-{ids[-1]}"
+    return ", ".join(str(i) for i in ids)
+
+
+def _object_quality(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, opt: RefineOptions,
+                    n_views: int = 8) -> dict:
+    """Per object: ``contour_px`` = median over up to ``n_views`` evenly spaced views of the
+    offset (px) of the visible contour from the image's edges at the refined poses
+    (:func:`ycbvss.refine.confidence.contour_offset_px`), ``radius_mm`` = mean vertex distance
+    from the model origin."""
+    renderer = get_renderer()
+    idx = np.unique(np.round(np.linspace(0, len(views) - 1, min(n_views, len(views)))).astype(int))
+    per: dict[int, list[float]] = {o: [] for o in obj_ids}
+    for i in idx:
+        v = views[i]
+        P = {j: poses[(v.im_id, o)] for j, o in enumerate(obj_ids) if ok[j] and (v.im_id, o) in poses}
+        if not P:
+            continue
+        vr = render_view(renderer, models, obj_ids, v.K, v.width, v.height, P)
+        mag = gradient_magnitude(v.image, 1.0)
+        mag_t = gradient_magnitude(composite(vr, v.image), 1.0)
+        for j in vr.obj_index:
+            r = contour_offset_px(mag, mag_t, vr.instance, vr.depth_mm, vr.label_of(j))
+            if np.isfinite(r):
+                per[obj_ids[j]].append(r)
+    out = {}
+    for j, o in enumerate(obj_ids):
+        m = models[o]
+        V = m.vertices_mm if m.path is not None else np.asarray(m.mesh.vertices, np.float64)
+        out[o] = {"contour_px": float(np.median(per[o])) if per[o] else float("nan"),
+                  "contour_views": len(per[o]), "radius_mm": float(np.linalg.norm(V, axis=1).mean())}
+    return out
 
 
 def auto_sigmas(base: tuple[float, ...], width: int) -> tuple[float, ...]:
@@ -519,18 +582,58 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                 b = pbn.cam_block[i]
                 cam_cov[i] = cov_nk[6 * b:6 * b + 6, 6 * b:6 * b + 6]
 
-    poses = {(views[i].im_id, obj_ids[j]): T_c[i] @ T_m[j] for i in range(n) for j in range(len(obj_ids)) if known[j]}
-    sigma = pose_sigmas(T_c, T_m, cam_cov, obj_cov, cross, [v.im_id for v in views], obj_ids, known)
+    cam_move_mm, cam_move_deg = np.zeros(n), np.zeros(n)
+    cam_move_mm[kf], cam_move_deg[kf] = stage.cam_move
+    if nonkey and not opt.fix_cameras:
+        cam_move_mm[nonkey], cam_move_deg[nonkey] = st2.cam_move[0][nonkey], st2.cam_move[1][nonkey]
+    obj_move = stage.obj_move
+    bad_cam = ~np.all(np.isfinite(T_c.reshape(n, -1)), axis=1)
+    bad_obj = ~np.all(np.isfinite(T_m.reshape(len(obj_ids), -1)), axis=1)
+    poses, failed = {}, set()
+    num_fail = stage.numerical_failure or (bool(nonkey) and not opt.fix_cameras and st2.numerical_failure)
+    for i in range(n):
+        for j in range(len(obj_ids)):
+            if not known[j]:
+                continue
+            key = (views[i].im_id, obj_ids[j])
+            P = T_c[i] @ T_m[j]
+            if bad_cam[i] or bad_obj[j] or not np.all(np.isfinite(P)):
+                failed.add(key)
+                P = init_poses[key]      # never a silent fallback: flagged 'failed' (score <= 0.1), named below
+            elif num_fail:
+                failed.add(key)
+            poses[key] = P
+    for oid in sorted({o for (_, o) in failed}):
+        ims = sorted(im for (im, o) in failed if o == oid)
+        what = ("a linear system that stayed singular" if num_fail else
+                "a non-finite pose (the initial pose is written instead)")
+        warnings.warn(f"scene {scene.scene_id} frame{'s' if len(ims) > 1 else ''} {_id_list(ims)} object {oid}: "
+                      f"refinement failed ({what}); status 'failed', score <= 0.1")
+    if failed:
+        converged = False
+    sigma = pose_sigmas(np.where(bad_cam[:, None, None], T_c_init, T_c), np.where(bad_obj[:, None, None], pb0.T_m, T_m),
+                        cam_cov, obj_cov, cross, [v.im_id for v in views], obj_ids, known & ~bad_obj)
+    t0 = time.perf_counter()
+    quality = _object_quality(views, models, obj_ids, known & ~bad_obj, poses, opt)
+    stats["confidence_s"] = time.perf_counter() - t0
+    status, confidence, reasons = {}, {}, {}
+    for (im, oid), P in poses.items():
+        i, j = vidx[im], obj_ids.index(oid)
+        sp = sigma["poses"].get((im, oid))
+        sig = (sigma_add_mm(sp["sigma_t_mm"], sp["sigma_r_deg"], quality[oid]["radius_mm"]) if sp else None)
+        ps = classify(quality[oid]["contour_px"], sig, max(float(obj_move[0][j]), float(cam_move_mm[i])),
+                      max(float(obj_move[1][j]), float(cam_move_deg[i])),
+                      observed=any(k[1] == oid for k in visible), numerical_failure=(im, oid) in failed)
+        status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
+        quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
+        quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
     stats["total_s"] = time.perf_counter() - t_start
     for k, v in list(stats.items()):
         if isinstance(v, float):
             stats[k] = round(v, 4)
-    ok_all = all(np.all(np.isfinite(T)) for T in poses.values())
-    if not ok_all:   # never hand out NaN: fall back to the initialisation
-        poses = {k: (T if np.all(np.isfinite(T)) else init_poses[k]) for k, T in poses.items()}
-        converged = False
-    return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n)},
-                        T_m2w={obj_ids[j]: T_m[j] for j in range(len(obj_ids)) if known[j]},
+    return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n) if not bad_cam[i]},
+                        T_m2w={obj_ids[j]: T_m[j] for j in range(len(obj_ids)) if known[j] and not bad_obj[j]},
                         init_poses={k: v for k, v in init_poses.items() if known[obj_ids.index(k[1])]},
                         sigma=sigma, log=log, converged=bool(converged), missing_objects=missing,
-                        visible=visible, stats=stats)
+                        visible=visible, stats=stats, status=status, confidence=confidence, reasons=reasons,
+                        quality=quality)

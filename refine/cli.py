@@ -69,7 +69,8 @@ def _run(args: argparse.Namespace) -> int:
         dt = (time.perf_counter() - t0) / max(len(scene.frames), 1)
         ests += estimates_of(scene.scene_id, res, dt)
         write_scene_outputs(out, args.split, scene, res)
-        print(f"scene {scene.scene_id}: {len(res.poses)} poses, converged={res.converged}, "
-              f"{res.stats.get('total_s', 0):.1f} s")
+        counts = {k: sum(1 for v in res.status.values() if v == k) for k in ("converged", "uncertain", "failed")}
+        print(f"scene {scene.scene_id}: {len(res.poses)} poses ({counts['converged']} converged, "
+              f"{counts['uncertain']} uncertain, {counts['failed']} failed), {res.stats.get('total_s', 0):.1f} s")
     write_bop19_csv(out / f"refine_{ds.name or 'dataset'}-{args.split}.csv", ests)
     return 0

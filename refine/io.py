@@ -27,13 +27,15 @@ def _jsonable(x):
 
 
 def estimates_of(scene_id: int, res: RefineResult, time_s: float = -1.0) -> list[Estimate]:
-    """BOP19 estimates (score 1, same time for every estimate of the scene)."""
-    return [Estimate(int(scene_id), int(im), int(o), 1.0, T, time_s) for (im, o), T in sorted(res.poses.items())]
+    """BOP19 estimates; the score is the pose's confidence in [0, 1] (a failed pose scores <= 0.1),
+    the same time for every estimate of the scene."""
+    return [Estimate(int(scene_id), int(im), int(o), float(res.confidence.get((im, o), 0.0)), T, time_s)
+            for (im, o), T in sorted(res.poses.items())]
 
 
 def write_scene_outputs(out_dir: str | Path, split: str, scene, res: RefineResult) -> Path:
     """Write <out>/<split>/<scene:06d>/{scene_gt.json, scene_camera.json} and
-    <out>/refine/<scene:06d>_{world.json, sigma.json, log.json}. Returns the scene directory."""
+    <out>/refine/<scene:06d>_{world.json, sigma.json, status.json, log.json}. Returns the scene directory."""
     from ycbvss.io.bop import BopSceneWriter
     from ycbvss.scene import Instance
 
@@ -54,5 +56,11 @@ def write_scene_outputs(out_dir: str | Path, split: str, scene, res: RefineResul
         "T_w2c": {str(i): np.asarray(T).tolist() for i, T in res.T_w2c.items()},
         "missing_objects": res.missing_objects, "converged": res.converged})
     write_json_atomic(base / f"{sid}_sigma.json", _jsonable(res.sigma))
+    write_json_atomic(base / f"{sid}_status.json", {
+        "rules": "see ycbvss.refine.confidence",
+        "objects": _jsonable(res.quality),
+        "poses": [{"im_id": int(im), "obj_id": int(o), "status": res.status.get((im, o), "failed"),
+                   "confidence": round(float(res.confidence.get((im, o), 0.0)), 4),
+                   "reason": res.reasons.get((im, o), "")} for (im, o) in sorted(res.poses)]})
     write_json_atomic(base / f"{sid}_log.json", _jsonable({"stats": res.stats, "log": res.log}))
     return w.dir

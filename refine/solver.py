@@ -11,6 +11,7 @@ N_params, 1) (the residual variance of a least-squares cost f = sum r^2 whose He
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,12 +112,15 @@ def assemble(n_blocks: int, lins: list[Linearization]) -> tuple[np.ndarray | sp.
     return sp.csr_matrix((vals, (rows, cols)), shape=(N, N)), g
 
 
-def damped_solve(H: np.ndarray | sp.csr_matrix, g: np.ndarray, lam: float) -> np.ndarray:
-    """Solve (H + lam * (diag(H) + eps)) delta = -g; returns zeros if singular.
+def damped_solve(H: np.ndarray | sp.csr_matrix, g: np.ndarray, lam: float) -> np.ndarray | None:
+    """Solve (H + lam * (diag(H) + eps)) delta = -g; None if the system is singular or not finite.
 
     Dense H: Cholesky (the damped matrix is positive definite: H is a sum of J^T A J with A PSD),
-    LU if that fails; sparse H: sparse LU."""
+    LU if that fails; sparse H: sparse LU. Only the numerical errors these solvers raise for a
+    singular or non-finite system are caught; anything else is a bug and propagates."""
     d = H.diagonal()
+    if not (np.all(np.isfinite(d)) and np.all(np.isfinite(g))):
+        return None
     eps = 1e-9 * max(float(d.max()) if d.size else 1.0, 1e-12) + 1e-12
     damp = lam * (d + eps) + eps
     try:
@@ -128,12 +132,14 @@ def damped_solve(H: np.ndarray | sp.csr_matrix, g: np.ndarray, lam: float) -> np
             except np.linalg.LinAlgError:
                 delta = sla.solve(M, -g, check_finite=False)
         else:
-            delta = spla.spsolve((H + sp.diags(damp)).tocsc(), -g)
-    except Exception:   # noqa: BLE001 - singular system: no step
-        return np.zeros_like(g)
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", spla.MatrixRankWarning)
+                delta = spla.spsolve((H + sp.diags(damp)).tocsc(), -g)
+    except (np.linalg.LinAlgError, spla.MatrixRankWarning, ValueError):   # singular / non-finite system
+        return None
     delta = np.asarray(delta, dtype=np.float64)
     if not np.all(np.isfinite(delta)):
-        return np.zeros_like(g)
+        return None
     return delta
 
 
@@ -192,8 +198,15 @@ def run_lm(pb: BundleProblem, terms, opt: SolverOptions, log: list | None = None
         H, g = assemble(pb.n_blocks, lins)
         st = pb.state()
         accepted = False
+        n_singular = 0
+        delta = np.zeros_like(g)
         for _ in range(opt.max_tries):
             delta = damped_solve(H, g, lam)
+            if delta is None:            # singular system at this damping: raise it and retry
+                n_singular += 1
+                delta = np.zeros_like(g)
+                lam = min(lam * 4.0, opt.lambda_max)
+                continue
             pb.apply_step(delta)
             c1, per1 = total_cost(pb, terms)
             if np.isfinite(c1) and c1 < c0 and np.all(np.isfinite(pb.T_c)) and np.all(np.isfinite(pb.T_m)):
@@ -207,7 +220,8 @@ def run_lm(pb: BundleProblem, terms, opt: SolverOptions, log: list | None = None
         if log is not None:
             log.append({"stage": stage, "iter": it, "cost": c1 if accepted else c0,
                         "cost_terms": per1 if accepted else per0, "cost_before": c0, "step": step,
-                        "lambda": lam, "accepted": accepted, "time_s": time.perf_counter() - t0})
+                        "lambda": lam, "accepted": accepted, "singular": n_singular,
+                        "time_s": time.perf_counter() - t0})
         if not accepted:
             converged = lam >= opt.lambda_max or converged
             break

@@ -35,7 +35,10 @@ def blender_job(scene: ProceduralScene, models_dir: Path, work_dir: Path, sample
                 denoise: bool = True, with_table: bool = False) -> dict:
     """The render job dict (see ``ycbvss.synth.blender.render_job``) for all frames of ``scene``."""
     work_dir = Path(work_dir)
-    paths = write_models(scene, models_dir)
+    if all(m.path is not None and Path(m.path).is_file() for m in scene.models.values()):
+        paths = {oid: Path(m.path) for oid, m in scene.models.items()}     # models already on disk (BOP PLY)
+    else:
+        paths = write_models(scene, models_dir)
     meshes = {f"obj_{oid:06d}": {"path": str(p)} for oid, p in paths.items()}
     if with_table:
         meshes["table"] = {"path": str(write_table(scene, work_dir / "table" / "table.ply"))}

@@ -1,0 +1,203 @@
+"""The refiner's validation suite ``ycbv21``: Blender-rendered table-top scenes of all 21 YCB-V
+objects with exact ground truth, and the clips the refiner is measured on.
+
+Nine scenes of seven objects each; every object is in three scenes. Scenes 1-3 ("long") follow a
+200-frame hand-held path of 60 degrees; scenes 4-9 a 60-frame path of 20 degrees. Clips:
+
+- short: 8 frames, every 3rd of frames 0..21 (about 6-7 degrees of viewing baseline), all scenes;
+- medium: 30 frames, every 2nd of frames 0..58 (about 18-20 degrees), all scenes;
+- long: all 200 frames (60 degrees), scenes 1-3, refined with keyframes.
+
+Held out of every tuning run: scenes 3, 8 and 9 and initialisation seeds >= 5. The images come
+from Blender (Cycles, lit, glossy, the object textures of the YCB-V models); the refiner's own fast
+renderer draws only the table under them, never an object. Generation is deterministic and
+cached: a scene is rendered once, a re-run only refines.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import YcbvssError
+from ..scene import Scene
+
+
+@dataclass(frozen=True)
+class SuiteScene:
+    """One scene of the suite: ``obj_ids`` on the table, ``n_frames`` views over ``arc_deg``."""
+
+    scene_id: int
+    obj_ids: tuple[int, ...]
+    n_frames: int
+    arc_deg: float
+    seed: int
+    held_out: bool = False
+
+    @property
+    def is_long(self) -> bool:
+        return self.n_frames >= 200
+
+
+@dataclass(frozen=True)
+class Clip:
+    """A clip: the frames (im_ids) of one suite scene that one refinement run gets."""
+
+    scene_id: int
+    kind: str             # "short" | "medium" | "long"
+    im_ids: tuple[int, ...]
+    held_out: bool
+
+    @property
+    def name(self) -> str:
+        return f"{self.kind}-{self.scene_id}"
+
+
+YCBV21 = (
+    SuiteScene(1, (1, 5, 8, 10, 14, 17, 19), 200, 60.0, 101),
+    SuiteScene(2, (2, 4, 7, 12, 15, 18, 21), 200, 60.0, 102),
+    SuiteScene(3, (3, 6, 9, 11, 13, 16, 20), 200, 60.0, 103, held_out=True),
+    SuiteScene(4, (1, 3, 7, 11, 15, 17, 21), 60, 20.0, 104),
+    SuiteScene(5, (2, 6, 10, 13, 16, 18, 19), 60, 20.0, 105),
+    SuiteScene(6, (4, 5, 8, 9, 12, 14, 20), 60, 20.0, 106),
+    SuiteScene(7, (1, 2, 9, 10, 11, 20, 21), 60, 20.0, 107),
+    SuiteScene(8, (3, 4, 5, 6, 15, 17, 19), 60, 20.0, 108, held_out=True),
+    SuiteScene(9, (7, 8, 12, 13, 14, 16, 18), 60, 20.0, 109, held_out=True),
+)
+# a CI-sized scene: five objects (thin, small, symmetric and textureless ones), a short clip only
+YCBV21_CI = (SuiteScene(21, (13, 14, 18, 19, 21), 22, 7.0, 121),)
+SUITES = {"ycbv21": YCBV21, "ycbv21-ci": YCBV21_CI}
+HELD_OUT_SEED_MIN = 5
+SHORT = tuple(range(0, 22, 3))
+MEDIUM = tuple(range(0, 60, 2))
+
+
+def clips_of(spec: SuiteScene, kinds=("short", "medium", "long")) -> list[Clip]:
+    """The clips of a scene (those its path is long enough for)."""
+    out = []
+    if "short" in kinds and spec.n_frames > SHORT[-1]:
+        out.append(Clip(spec.scene_id, "short", SHORT, spec.held_out))
+    if "medium" in kinds and spec.n_frames > MEDIUM[-1]:
+        out.append(Clip(spec.scene_id, "medium", MEDIUM, spec.held_out))
+    if "long" in kinds and spec.is_long:
+        out.append(Clip(spec.scene_id, "long", tuple(range(spec.n_frames)), spec.held_out))
+    return out
+
+
+def rendered_frames(spec: SuiteScene) -> list[int]:
+    """The im_ids a scene's clips use (only these are rendered)."""
+    return sorted({i for c in clips_of(spec) for i in c.im_ids}) or list(range(spec.n_frames))
+
+
+def spec_hash(spec: SuiteScene, width: int, height: int, samples: int) -> str:
+    blob = json.dumps({**asdict(spec), "width": width, "height": height, "samples": samples, "v": 1}, sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def suite_models(src: str | Path, root: Path) -> dict:
+    """The 21 YCB-V models as BOP models under ``root/models`` (converted once from an original
+    YCB-Video root, or copied from a BOP root's models/). Returns obj_id -> ObjectModel."""
+    from ..io.bop import load_models
+    from .datasets import is_ycbv_root
+
+    src = Path(src)
+    mdir = root / "models"
+    if not (mdir / "models_info.json").is_file():
+        if not src.exists():
+            raise YcbvssError("dataset not found", src)
+        if is_ycbv_root(src):
+            from ..convert import convert_models
+            from ..io.ycbv import load_ycbv_models
+            convert_models(load_ycbv_models(src), mdir)
+        elif (src / "models" / "models_info.json").is_file():
+            tmp = root / "models.tmp"
+            shutil.rmtree(tmp, ignore_errors=True)
+            shutil.copytree(src / "models", tmp)
+            tmp.rename(mdir)
+        else:
+            raise YcbvssError("the suite needs the YCB-V models: give a YCB-Video root (models/<name>/) or a "
+                              "BOP root with models/models_info.json", src)
+    models = load_models(mdir)
+    missing = [o for o in range(1, 22) if o not in models]
+    if missing:
+        raise YcbvssError(f"the suite needs all 21 YCB-V models; missing obj_ids {missing}", mdir)
+    return models
+
+
+def build_scene(spec: SuiteScene, models: dict, root: Path, width: int = 640, height: int = 480,
+                samples: int = 12, workers: int = 1, quiet: bool = False) -> Path:
+    """Render one suite scene with Blender into ``root/test/<scene>`` (BOP: rgb, depth, mask,
+    mask_visib, scene_gt(_info), scene_camera with the exact cameras). Cached: a complete scene
+    rendered from the same spec is kept."""
+    from ..gt_info import compute_gt_info
+    from ..io.atomic import read_json, write_json_atomic
+    from ..io.bop import BopSceneWriter
+    from ..procedural.blender import render_blender
+    from ..procedural.ycbv_scene import make_ycbv_scene
+    from ..progress import progress
+    from ..render import Renderer
+
+    sdir = root / "test" / f"{spec.scene_id:06d}"
+    marker = sdir / "suite_scene.json"
+    h = spec_hash(spec, width, height, samples)
+    if marker.is_file() and (sdir / "scene_camera.json").is_file():
+        if read_json(marker, "suite marker").get("hash") == h:
+            return sdir
+    sc = make_ycbv_scene(models, list(spec.obj_ids), seed=spec.seed, n_frames=spec.n_frames,
+                         arc_deg=spec.arc_deg, width=width, height=height, scene_id=spec.scene_id)
+    keep = set(rendered_frames(spec))
+    sc.frames = [f for f in sc.frames if f.im_id in keep]
+    gl = Renderer()
+    writer = BopSceneWriter(root / "test", spec.scene_id)
+    frames = {f.im_id: f for f in sc.frames}
+    bar = progress(desc=f"render scene {spec.scene_id} (Blender Cycles)", total=len(sc.frames), unit="frame")
+    try:
+        for im_id, rgb, depth in render_blender(sc, root / "models", root / "work" / f"{spec.scene_id:06d}",
+                                                samples=samples, workers=workers, on_frame=lambda: bar.update(1)):
+            f = frames[im_id]
+            masks, masks_visib, info = compute_gt_info(gl, f, models, depth_mm_real=depth)
+            writer.write_frame(f, rgb=rgb, depth_mm=depth, masks=masks, masks_visib=masks_visib, gt_info=info)
+    finally:
+        bar.close()
+    writer.close()
+    shutil.rmtree(root / "work" / f"{spec.scene_id:06d}", ignore_errors=True)
+    write_json_atomic(marker, {"hash": h, "spec": asdict(spec), "layout": _jsonable(getattr(sc, "layout", {})),
+                               "width": width, "height": height, "samples": samples})
+    return sdir
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (np.integer, np.floating)):
+        return x.item()
+    return x
+
+
+def build_suite(src: str | Path, root: str | Path, suite: str = "ycbv21", scene_ids=None, width: int = 640,
+                height: int = 480, samples: int = 12, quiet: bool = False) -> tuple[dict, list[SuiteScene]]:
+    """Build (or reuse) the suite's dataset under ``root``. Returns (models, scene specs)."""
+    if suite not in SUITES:
+        raise YcbvssError(f"unknown suite {suite!r} (known: {', '.join(SUITES)})")
+    root = Path(root)
+    by_id = {s.scene_id: s for s in SUITES[suite]}
+    if scene_ids is not None:
+        bad = [i for i in scene_ids if i not in by_id]
+        if bad:
+            raise YcbvssError(f"suite {suite} has no scene {bad[0]} (scenes: {sorted(by_id)})")
+    specs = list(SUITES[suite]) if scene_ids is None else [by_id[i] for i in scene_ids]
+    models = suite_models(src, root)
+    for spec in specs:
+        build_scene(spec, models, root, width, height, samples, quiet=quiet)
+    return models, specs
+
+
+def clip_scene(scene: Scene, clip: Clip) -> Scene:
+    """The frames of ``clip`` of a loaded suite scene."""
+    keep = set(clip.im_ids)
+    return Scene(scene.scene_id, [f for f in sorted(scene.frames, key=lambda f: f.im_id) if f.im_id in keep],
+                 scene.root)
