@@ -621,9 +621,10 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         i, j = vidx[im], obj_ids.index(oid)
         sp = sigma["poses"].get((im, oid))
         sig = (sigma_add_mm(sp["sigma_t_mm"], sp["sigma_r_deg"], quality[oid]["radius_mm"]) if sp else None)
-        ps = classify(quality[oid]["contour_px"], sig, max(float(obj_move[0][j]), float(cam_move_mm[i])),
-                      max(float(obj_move[1][j]), float(cam_move_deg[i])),
-                      observed=any(k[1] == oid for k in visible), numerical_failure=(im, oid) in failed)
+        moved = (float(obj_move[0][j]) + float(cam_move_mm[i])
+                 + np.radians(float(obj_move[1][j]) + float(cam_move_deg[i])) * quality[oid]["radius_mm"])
+        ps = classify(quality[oid]["contour_px"], sig, moved, observed=any(k[1] == oid for k in visible),
+                      numerical_failure=(im, oid) in failed)
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))

@@ -12,7 +12,8 @@ Three measurements per object of a scene:
   calibration factors ``SIGMA_SCALE`` measured on the ycbv21 suite (so that the true error is
   within 2 sigma for >= 90 % of the poses on every axis), folded into one ``sigma_add_mm``
   (the ADD a 1-sigma pose error would give).
-- ``moved_mm`` / ``moved_deg``: how far the object's world pose moved in the last outer iteration.
+- ``moved_add_mm``: how far the pose moved in the last outer iteration (its camera's and its
+  object's translation change plus the rotation change acting at the object's mean radius).
 
 Status: ``failed`` for a numerical failure (NaN, singular system) or a contour clearly off the
 image edges (``contour_px > FAIL_PX``); ``uncertain`` when the contour is loose
@@ -38,7 +39,6 @@ FAIL_PX = 2.5
 SIGMA_OK_MM = 2.0
 SIGMA_SCALE_MM = 4.0
 MOVE_TOL_MM = 0.25
-MOVE_TOL_DEG = 0.1
 # sigma calibration (multiplies the covariance sigmas; tx, ty, tz, R), measured on the ycbv21 suite
 SIGMA_SCALE = (1.0, 1.0, 1.0, 1.0)
 
@@ -93,16 +93,18 @@ def contour_offset_px(image_mag: np.ndarray, template_mag: np.ndarray, instance:
     The shift of the image profile that best matches the template profile (normalised
     cross-correlation, sub-pixel by a parabola) is the sector's offset. Averaging along a sector
     makes the background texture cancel. A depth error shifts every sector outward or inward, a
-    lateral error opposite sectors oppositely, a wrong rotation some sectors. Returns the largest
-    |offset| over the sectors whose best correlation is >= ``min_ncc`` (capped at
-    ``max_shift_px``); NaN when no sector qualifies (no contrast: unverifiable, not wrong)."""
+    lateral error two opposite sectors, a wrong rotation some sectors. Returns the second largest
+    |offset| over the sectors whose best correlation is >= ``min_ncc`` (two sectors must agree, so
+    one sector fooled by a nearby strong edge does not decide; the only one if just one
+    qualifies), capped at ``max_shift_px``; NaN when no sector qualifies (no contrast:
+    unverifiable, not wrong)."""
     uv, n = visible_contour(instance, depth_mm, label)
     if len(uv) < min_px:
         return float("nan")
     s = np.arange(-reach_px, reach_px + 1e-9, 0.5)
     shifts = np.arange(-max_shift_px, max_shift_px + 1e-9, 0.5)
     sector = (np.round(np.arctan2(n[:, 1], n[:, 0]) / (np.pi / 2)).astype(int)) % 4
-    worst = float("nan")
+    offs = []
     for q in range(4):
         sel = sector == q
         if sel.sum() < min_px:
@@ -125,8 +127,11 @@ def contour_offset_px(image_mag: np.ndarray, template_mag: np.ndarray, instance:
             den = ncc[k - 1] - 2 * ncc[k] + ncc[k + 1]
             if den < 0:
                 off = shifts[k] + 0.25 * (ncc[k - 1] - ncc[k + 1]) / den
-        worst = abs(off) if not np.isfinite(worst) else max(worst, abs(off))
-    return float(worst)
+        offs.append(abs(float(off)))
+    if not offs:
+        return float("nan")
+    offs.sort(reverse=True)
+    return offs[1] if len(offs) >= 2 else offs[0]
 
 
 def sigma_add_mm(sigma_t_mm, sigma_r_deg: float, radius_mm: float) -> float:
@@ -144,8 +149,8 @@ class PoseStatus:
     reason: str = ""
 
 
-def classify(contour_px: float, sig_add_mm: float | None, moved_mm: float, moved_deg: float,
-             observed: bool, numerical_failure: bool = False) -> PoseStatus:
+def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, observed: bool,
+             numerical_failure: bool = False) -> PoseStatus:
     """Status and confidence of one pose (see the module docstring for the rules)."""
     if numerical_failure:
         return PoseStatus("failed", 0.0, "numerical failure")
@@ -158,9 +163,9 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_mm: float, moved
     s = sig_add_mm if (sig_add_mm is not None and np.isfinite(sig_add_mm)) else None
     q_s = float(np.exp(-s / SIGMA_SCALE_MM)) if s is not None else 0.5
     conf = q_c * q_s
-    moving = moved_mm > MOVE_TOL_MM or moved_deg > MOVE_TOL_DEG
+    moving = moved_add_mm > max(MOVE_TOL_MM, s if s is not None else 0.0)
     if moving:
-        reasons.append(f"still moving ({moved_mm:.2f} mm, {moved_deg:.2f} deg in the last iteration)")
+        reasons.append(f"still moving ({moved_add_mm:.2f} mm in the last iteration)")
     if not observed:
         reasons.append("no image terms (placed by the scene consistency only)")
     if moving or not observed:

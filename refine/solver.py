@@ -135,7 +135,7 @@ def damped_solve(H: np.ndarray | sp.csr_matrix, g: np.ndarray, lam: float) -> np
             with warnings.catch_warnings():
                 warnings.simplefilter("error", spla.MatrixRankWarning)
                 delta = spla.spsolve((H + sp.diags(damp)).tocsc(), -g)
-    except (np.linalg.LinAlgError, spla.MatrixRankWarning, ValueError):   # singular / non-finite system
+    except (np.linalg.LinAlgError, spla.MatrixRankWarning):   # singular system (non-finite ones are refused above)
         return None
     delta = np.asarray(delta, dtype=np.float64)
     if not np.all(np.isfinite(delta)):

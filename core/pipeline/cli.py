@@ -105,6 +105,16 @@ def register(subparsers) -> None:
                    help="Blender worker processes for the synthesis (default: one per core)")
     v.add_argument("--samples", type=_int_min(1), default=8, metavar="N",
                    help="Cycles samples per pixel for the synthesis (default 8)")
+    v.add_argument("--suite", default=None, metavar="NAME",
+                   help="run the refiner's validation suite instead (ycbv21: 9 Blender scenes of the 21 YCB-V "
+                        "models, short/medium/long clips; ycbv21-ci: one short clip); --dataset gives the "
+                        "YCB-V models (original or BOP root); scenes are rendered once and cached in --out")
+    v.add_argument("--suite-kinds", default="short,medium,long", metavar="LIST",
+                   help="clip kinds to run with --suite (default short,medium,long)")
+    v.add_argument("--suite-seeds", default="0,5", metavar="LIST",
+                   help="initialisation seeds with --suite (default 0,5; seeds >= 5 are held out of tuning)")
+    v.add_argument("--capture", default="", metavar="KINDS",
+                   help="with --suite: also run the capture-range levels (init ADD 5..60 mm) on these clip kinds")
     _common(v)
     v.set_defaults(func=_validate)
 
@@ -170,6 +180,8 @@ def _validate(args) -> int:
     from .validate import Stages, ValidateOptions, run_validate
     if not args.dataset.exists():
         raise YcbvssError("dataset not found", args.dataset)
+    if args.suite:
+        return _validate_suite(args)
     opts = ValidateOptions(dataset=args.dataset, out=args.out, split=args.split, scenes=args.scenes, seed=args.seed,
                            init_add_mm=args.init_add_mm, init_prj_px=args.init_prj_px, real=args.real,
                            gt_exact=args.gt_exact, ablation=args.ablation, keyframe_step=args.keyframe_step,
@@ -178,6 +190,29 @@ def _validate(args) -> int:
     stages = Stages()
     summary = run_validate(opts, stages)
     _print_summary(summary, "ycbvss validate" + (" --real" if args.real else ""), stages)
+    return 0
+
+
+def _validate_suite(args) -> int:
+    from .suite_run import run_suite
+
+    def names(s: str) -> tuple[str, ...]:
+        out = tuple(x.strip() for x in s.split(",") if x.strip())
+        bad = [x for x in out if x not in ("short", "medium", "long")]
+        if bad:
+            raise YcbvssError(f"unknown clip kind {bad[0]!r} (short, medium, long)")
+        return out
+
+    try:
+        seeds = tuple(int(x) for x in args.suite_seeds.split(",") if x.strip())
+    except ValueError:
+        raise YcbvssError(f"--suite-seeds must be a comma-separated list of integers, got {args.suite_seeds!r}")
+    res = run_suite(args.dataset, args.out, args.suite, scene_ids=args.scenes, kinds=names(args.suite_kinds),
+                    seeds=seeds, ablation=args.ablation, capture_kinds=names(args.capture) if args.capture else ())
+    for name, p in res["tables"].items():
+        if p.suffix == ".md":
+            print(p.read_text())
+    print(f"ycbvss validate --suite {args.suite}: {res['n_rows']} pose rows -> {args.out / 'report'}")
     return 0
 
 

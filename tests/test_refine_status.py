@@ -1,0 +1,118 @@
+"""Status and confidence of refined poses, and no silent failures (unit tests; the images come from
+the fast renderer, so they are no evidence of accuracy -- tests/test_refine_suite.py is).
+
+Budget: ~40 s on 2 cores."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from ycbvss.refine import RefineOptions, refine_scene
+from ycbvss.refine.confidence import classify, contour_offset_px
+from ycbvss.refine.edge import gradient_magnitude
+from ycbvss.refine.io import estimates_of
+from ycbvss.refine.solver import damped_solve
+
+
+@pytest.fixture(scope="module")
+def scene3():
+    from ycbvss.procedural.render import render_frame_fast
+    from ycbvss.procedural.scene import make_scene
+
+    ps = make_scene(seed=2, n_frames=3, width=320, height=240, arc_deg=20)
+    imgs = {f.im_id: render_frame_fast(ps, f, noise_sigma=1.0)[0] for f in ps.frames}
+    gt = {(f.im_id, i.obj_id): i.T_m2c for f in ps.frames for i in f.instances}
+    return ps, imgs, gt
+
+
+def test_damped_solve_returns_none_for_a_singular_or_nonfinite_system_and_raises_on_bugs():
+    H = np.zeros((6, 6))
+    H[0, 0] = np.nan
+    assert damped_solve(H, np.ones(6), 1e-3) is None
+    assert damped_solve(np.eye(6), np.full(6, np.inf), 1e-3) is None
+    d = damped_solve(sp.csr_matrix(np.eye(12) * 2.0), np.ones(12), 0.0)
+    assert d is not None and np.allclose(d, -0.5, atol=1e-6)
+    with pytest.raises(Exception) as ei:      # a programming error is not swallowed into a zero step
+        damped_solve(np.eye(6), np.ones(7), 1e-3)
+    assert not isinstance(ei.value, np.linalg.LinAlgError)
+
+
+def test_classify_rules():
+    ok = classify(0.3, 0.5, 0.1, observed=True)
+    assert ok.status == "converged" and ok.confidence > 0.8
+    assert classify(1.6, 0.5, 0.0, True).status == "uncertain"
+    bad = classify(2.9, 0.5, 0.0, True)
+    assert bad.status == "failed" and bad.confidence <= 0.1
+    assert classify(0.3, 5.0, 0.0, True).status == "uncertain"         # large calibrated sigma
+    assert classify(0.3, 0.5, 0.6, True).status == "uncertain"         # moved more than its sigma
+    assert classify(0.3, 1.0, 0.6, True).status == "converged"         # ... or not
+    assert classify(0.3, 0.5, 0.0, False).status == "uncertain"        # no image terms
+    nan = classify(0.3, 0.5, 0.0, True, numerical_failure=True)
+    assert nan.status == "failed" and nan.confidence == 0.0
+
+
+def test_contour_offset_measures_a_shifted_silhouette(scene3):
+    """Median over the views (as the refiner reports it): a fraction of a pixel at the exact
+    poses, clearly more when every object is shifted laterally by 4 mm (about 2 px here)."""
+    from ycbvss.refine.templates import composite, ensure_meshes, get_renderer, render_view
+
+    ps, imgs, _ = scene3
+    r = get_renderer()
+    ensure_meshes(r, ps.models)
+
+    def offsets(f, dt):
+        oids = [i.obj_id for i in f.instances]
+        P = {j: i.T_m2c.copy() for j, i in enumerate(f.instances)}
+        for T in P.values():
+            T[:3, 3] += dt
+        vr = render_view(r, ps.models, oids, f.camera.K, f.camera.width, f.camera.height, P)
+        mag = gradient_magnitude(imgs[f.im_id], 1.0)
+        mt = gradient_magnitude(composite(vr, imgs[f.im_id]), 1.0)
+        return [contour_offset_px(mag, mt, vr.instance, vr.depth_mm, vr.label_of(j)) for j in range(len(oids))]
+
+    at_gt = np.nanmedian([offsets(f, np.zeros(3)) for f in ps.frames], axis=0)
+    shifted = np.nanmedian([offsets(f, np.array([4.0, 0.0, 0.0])) for f in ps.frames], axis=0)
+    assert np.max(at_gt) < 0.8, at_gt
+    assert np.min(shifted) > 1.0, shifted
+    assert np.all(shifted > at_gt + 0.5), (at_gt, shifted)
+
+
+def test_status_confidence_and_score(scene3):
+    ps, imgs, gt = scene3
+    res = refine_scene(ps.scene, ps.models, gt, RefineOptions(), images=imgs)
+    assert set(res.status) == set(res.poses) == set(res.confidence)
+    assert all(s in ("converged", "uncertain", "failed") for s in res.status.values())
+    assert all(0.0 <= c <= 1.0 for c in res.confidence.values())
+    assert sum(s == "converged" for s in res.status.values()) >= len(res.status) // 2, res.reasons
+    ests = estimates_of(1, res)
+    assert {(e.im_id, e.obj_id): e.score for e in ests} == {k: pytest.approx(v) for k, v in res.confidence.items()}
+
+
+def test_a_nan_pose_is_failed_and_named_never_silently_replaced(scene3, monkeypatch):
+    import ycbvss.refine.bundle as bundle
+
+    ps, imgs, gt = scene3
+    orig = bundle._Stage.run
+
+    def run_then_break(self, sigmas):          # a NaN appears in object index 1's world pose
+        terms = orig(self, sigmas)
+        if self.name == "keyframes":
+            self.pb.T_m[1][:3, 3] = np.nan
+        return terms
+
+    monkeypatch.setattr(bundle._Stage, "run", run_then_break)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        res = refine_scene(ps.scene, ps.models, gt, RefineOptions(max_iters=1, extra_iters=0, coarse_iters=1),
+                           images=imgs)
+    oid = sorted(ps.models)[1]
+    bad = {k for k in res.poses if k[1] == oid}
+    assert all(res.status[k] == "failed" and res.confidence[k] <= 0.1 for k in bad)
+    assert all(res.status[k] != "failed" for k in res.poses if k[1] != oid)
+    msgs = [str(x.message) for x in w if f"object {oid}" in str(x.message)]
+    assert len(msgs) == 1 and "scene 1" in msgs[0] and "frames 0-2" in msgs[0] and "failed" in msgs[0], msgs
+    assert all(np.all(np.isfinite(res.poses[k])) for k in bad)
+    assert res.converged is False
