@@ -20,6 +20,7 @@ _REGISTRARS = [
     ("ycbvss.synth.cli", "register"),        # synth, synth preview
     ("ycbvss.refine.cli", "register"),       # refine
     ("ycbvss.eval.cli", "register"),         # eval
+    ("ycbvss.pipeline.benchmark_cli", "register"),   # benchmark make|run|score
 ]
 
 
