@@ -24,7 +24,7 @@ from .solver import SolverOptions, covariance, run_lm
 from .templates import (composite, ensure_meshes, get_renderer, object_mask, render_view, select_edge_samples,
                         view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
-from .confidence import classify, contour_offset_px, sigma_add_mm
+from .confidence import calibrate_sigmas, classify, contour_offset_px, sigma_add_mm
 from .uncertainty import pose_sigmas
 
 
@@ -611,8 +611,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                       f"refinement failed ({what}); status 'failed', score <= 0.1")
     if failed:
         converged = False
-    sigma = pose_sigmas(np.where(bad_cam[:, None, None], T_c_init, T_c), np.where(bad_obj[:, None, None], pb0.T_m, T_m),
-                        cam_cov, obj_cov, cross, [v.im_id for v in views], obj_ids, known & ~bad_obj)
+    sigma = calibrate_sigmas(pose_sigmas(np.where(bad_cam[:, None, None], T_c_init, T_c),
+                                         np.where(bad_obj[:, None, None], pb0.T_m, T_m), cam_cov, obj_cov, cross,
+                                         [v.im_id for v in views], obj_ids, known & ~bad_obj))
     t0 = time.perf_counter()
     quality = _object_quality(views, models, obj_ids, known & ~bad_obj, poses, opt)
     stats["confidence_s"] = time.perf_counter() - t0

@@ -23,7 +23,7 @@ the pose stopped (last outer step below ``MOVE_TOL_MM`` / ``MOVE_TOL_DEG``), its
 image edges and its calibrated uncertainty is small.
 
 Confidence in [0, 1]: ``q_contour * q_sigma`` with q_contour falling linearly from 1 at
-``OK_PX`` to 0 at ``FAIL_PX`` and q_sigma = exp(-sigma_add_mm / SIGMA_SCALE_MM); times 0.7 when
+``OK_PX`` to 0 at ``FAIL_PX`` and q_sigma = exp(-sigma_add_mm / CONF_SIGMA_MM); times 0.7 when
 still moving or unobserved; at most 0.1 when failed. It is the BOP19 ``score`` of the pose.
 """
 from __future__ import annotations
@@ -37,7 +37,7 @@ CONTOUR_TRUNC_PX = 3.0
 OK_PX = 1.0
 FAIL_PX = 2.5
 SIGMA_OK_MM = 2.0
-SIGMA_SCALE_MM = 4.0
+CONF_SIGMA_MM = 4.0
 MOVE_TOL_MM = 0.25
 # sigma calibration (multiplies the covariance sigmas; tx, ty, tz, R), measured on the ycbv21 suite
 SIGMA_SCALE = (1.0, 1.0, 1.0, 1.0)
@@ -134,12 +134,21 @@ def contour_offset_px(image_mag: np.ndarray, template_mag: np.ndarray, instance:
     return offs[1] if len(offs) >= 2 else offs[0]
 
 
+def calibrate_sigmas(sigma: dict) -> dict:
+    """Apply the calibration ``SIGMA_SCALE`` to every ``sigma_t_mm`` / ``sigma_r_deg`` entry of a
+    :func:`ycbvss.refine.uncertainty.pose_sigmas` result (in place; returned)."""
+    for group in sigma.values():
+        for rec in group.values():
+            rec["sigma_t_mm"] = [float(v) * f for v, f in zip(rec["sigma_t_mm"], SIGMA_SCALE[:3])]
+            rec["sigma_r_deg"] = float(rec["sigma_r_deg"]) * SIGMA_SCALE[3]
+    return sigma
+
+
 def sigma_add_mm(sigma_t_mm, sigma_r_deg: float, radius_mm: float) -> float:
-    """ADD (mm) of a 1-sigma pose error: translation sigmas combined with the rotation sigma acting
-    at the object's mean radius (calibration ``SIGMA_SCALE`` applied)."""
-    st = np.asarray(sigma_t_mm, float) * np.asarray(SIGMA_SCALE[:3])
-    sr = float(sigma_r_deg) * SIGMA_SCALE[3]
-    return float(np.sqrt(np.sum(st ** 2) + (np.radians(sr) * radius_mm) ** 2))
+    """ADD (mm) of a 1-sigma pose error: the (calibrated) translation sigmas combined with the
+    rotation sigma acting at the object's mean radius."""
+    st = np.asarray(sigma_t_mm, float)
+    return float(np.sqrt(np.sum(st ** 2) + (np.radians(float(sigma_r_deg)) * radius_mm) ** 2))
 
 
 @dataclass
@@ -161,7 +170,7 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         q_c = 0.5
         reasons.append("contour not visible")
     s = sig_add_mm if (sig_add_mm is not None and np.isfinite(sig_add_mm)) else None
-    q_s = float(np.exp(-s / SIGMA_SCALE_MM)) if s is not None else 0.5
+    q_s = float(np.exp(-s / CONF_SIGMA_MM)) if s is not None else 0.5
     conf = q_c * q_s
     moving = moved_add_mm > max(MOVE_TOL_MM, s if s is not None else 0.0)
     if moving:

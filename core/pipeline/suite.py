@@ -98,33 +98,39 @@ def spec_hash(spec: SuiteScene, width: int, height: int, samples: int) -> str:
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
-def suite_models(src: str | Path, root: Path) -> dict:
-    """The 21 YCB-V models as BOP models under ``root/models`` (converted once from an original
-    YCB-Video root, or copied from a BOP root's models/). Returns obj_id -> ObjectModel."""
+def suite_models(src: str | Path, root: Path, obj_ids=None) -> dict:
+    """The YCB-V models ``obj_ids`` (default all 21) as BOP models under ``root/models``
+    (converted once from an original YCB-Video root, or copied from a BOP root's models/).
+    Returns obj_id -> ObjectModel."""
     from ..io.bop import load_models
     from .datasets import is_ycbv_root
 
     src = Path(src)
+    need = list(range(1, 22)) if obj_ids is None else sorted(set(obj_ids))
     mdir = root / "models"
-    if not (mdir / "models_info.json").is_file():
+    have = set()
+    if (mdir / "models_info.json").is_file():
+        have = set(load_models(mdir))
+    if not set(need) <= have:
         if not src.exists():
             raise YcbvssError("dataset not found", src)
         if is_ycbv_root(src):
             from ..convert import convert_models
             from ..io.ycbv import load_ycbv_models
-            convert_models(load_ycbv_models(src), mdir)
+            convert_models(load_ycbv_models(src), mdir, obj_ids=need)
         elif (src / "models" / "models_info.json").is_file():
             tmp = root / "models.tmp"
             shutil.rmtree(tmp, ignore_errors=True)
             shutil.copytree(src / "models", tmp)
+            shutil.rmtree(mdir, ignore_errors=True)
             tmp.rename(mdir)
         else:
             raise YcbvssError("the suite needs the YCB-V models: give a YCB-Video root (models/<name>/) or a "
                               "BOP root with models/models_info.json", src)
     models = load_models(mdir)
-    missing = [o for o in range(1, 22) if o not in models]
+    missing = [o for o in need if o not in models]
     if missing:
-        raise YcbvssError(f"the suite needs all 21 YCB-V models; missing obj_ids {missing}", mdir)
+        raise YcbvssError(f"the suite needs the YCB-V models of obj_ids {missing}", mdir)
     return models
 
 
@@ -190,7 +196,7 @@ def build_suite(src: str | Path, root: str | Path, suite: str = "ycbv21", scene_
         if bad:
             raise YcbvssError(f"suite {suite} has no scene {bad[0]} (scenes: {sorted(by_id)})")
     specs = list(SUITES[suite]) if scene_ids is None else [by_id[i] for i in scene_ids]
-    models = suite_models(src, root)
+    models = suite_models(src, root, sorted({o for s in specs for o in s.obj_ids}))
     for spec in specs:
         build_scene(spec, models, root, width, height, samples, quiet=quiet)
     return models, specs
