@@ -34,8 +34,8 @@ def format_results(rows: list[tuple[int, int, np.ndarray, float]]) -> str:
     out = [HEADER]
     for im_id, obj_id, T, dt in rows:
         T = np.asarray(T, dtype=np.float64)
-        R = " ".join(f"{x:.12g}" for x in T[:3, :3].reshape(9))
-        t = " ".join(f"{x:.12g}" for x in T[:3, 3])
+        R = " ".join(f"{x:.17g}" for x in T[:3, :3].reshape(9))
+        t = " ".join(f"{x:.17g}" for x in T[:3, 3])
         out.append(f"{int(im_id)},{int(obj_id)},{R},{t},{dt:.6g}")
     return "\n".join(out) + "\n"
 

@@ -21,7 +21,11 @@ BOP_SPLITS = ("test", "val", "train_real", "train_synt", "train_pbr", "train")
 @dataclass
 class Sequence:
     """One video: ``im_ids`` in temporal order, ``K[im_id]`` (3x3), ``gt[im_id][obj_id]`` 4x4 mm
-    object-to-camera (first instance of an object per frame), ``name`` for humans."""
+    object-to-camera (first instance of an object per frame), ``name`` for humans.
+
+    GT rotations are projected onto SO(3) when read (the readers accept |R^T R - I| up to 1e-4;
+    YCB-V's meta.mat rotations are float-rounded): ycbvss.eval's ADD maps points through
+    ``R_est^T R_gt``, which must be exact for an estimate equal to the GT to score 100."""
 
     scene_id: int
     name: str
@@ -75,6 +79,13 @@ def load_models(root: str | Path, layout: str, symmetric_obj_ids=(13,)) -> dict:
     return models
 
 
+def _so3(T) -> np.ndarray:
+    from ...geometry.so3 import project_to_so3
+    T = np.array(T, dtype=np.float64)
+    T[:3, :3] = project_to_so3(T[:3, :3])
+    return T
+
+
 def _gt_of_frames(frames) -> tuple[dict, dict]:
     K, gt = {}, {}
     for f in frames:
@@ -85,7 +96,7 @@ def _gt_of_frames(frames) -> tuple[dict, dict]:
                 warnings.warn(f"scene {f.scene_id} frame {f.im_id}: object {inst.obj_id} appears twice; "
                               f"the benchmark tracks its first instance")
                 continue
-            d[inst.obj_id] = np.asarray(inst.T_m2c, dtype=np.float64)
+            d[inst.obj_id] = _so3(inst.T_m2c)
         gt[f.im_id] = d
     return K, gt
 
@@ -112,7 +123,7 @@ def load_sequences(root: str | Path, layout: str | None = None, split: str | Non
                 K[im] = m["K"]
                 gt[im] = {}
                 for o, T in zip(m["obj_ids"], m["T_m2c"]):
-                    gt[im].setdefault(int(o), np.asarray(T, dtype=np.float64))
+                    gt[im].setdefault(int(o), _so3(T))
             seqs.append(Sequence(v, f"{v:04d}", ims, K, gt))
     elif layout == "bcot":
         from ...io.bcot import BCOT_TEST_SCENES, list_sequences, load_bcot_dataset
@@ -144,7 +155,7 @@ def load_sequences(root: str | Path, layout: str | None = None, split: str | Non
                 K[im] = np.asarray(cams[im]["K"], dtype=np.float64)
                 gt[im] = {}
                 for inst in gts.get(im, []):
-                    gt[im].setdefault(int(inst.obj_id), np.asarray(inst.T_m2c, dtype=np.float64))
+                    gt[im].setdefault(int(inst.obj_id), _so3(inst.T_m2c))
             seqs.append(Sequence(sid, f"{sid:06d}", sorted(cams), K, gt))
     else:
         raise YcbvssError(f"unknown dataset layout {layout!r} (bop, ycbv or bcot)")
