@@ -15,8 +15,10 @@ Modes:
 - ``per_object``: one two-view bundle per object (independent motions), one refinement per
   frame and object.
 
-A pose the refiner flags ``failed`` (non-finite / singular system) keeps the last pose. The
-tracker never re-initialises from GT.
+A pose the refiner flags ``failed`` (non-finite / singular system), or that is not a valid pose
+(not a rotation, behind the camera), keeps the last pose; an object whose last pose is invalid is
+not refined any more (it is lost). The tracker never re-initialises from GT. ``n_kept`` counts
+the (frame, object) pairs that kept their last pose.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from dataclasses import replace
 import numpy as np
 
 from ycbvss.camera import Camera
+from ycbvss.geometry.so3 import is_rotation
 from ycbvss.scene import Frame, Scene
 
 from .bundle import RefineOptions, refine_scene
@@ -35,6 +38,13 @@ TRACKER_OPTIONS = RefineOptions(
     max_iters=3, coarse_iters=1, inner_iters=3, extra_iters=0,
     n_edge_points=600, n_matches=600, compute_uncertainty=False, seed=0,
 )
+
+
+def valid_pose(T) -> bool:
+    """Finite, a rotation (1e-3) and in front of the camera."""
+    T = np.asarray(T, dtype=np.float64)
+    return (T.shape == (4, 4) and bool(np.all(np.isfinite(T))) and bool(is_rotation(T[:3, :3], 1e-3))
+            and T[2, 3] > 0)
 
 
 class EdgeFlowTracker:
@@ -53,6 +63,7 @@ class EdgeFlowTracker:
         self._scene_id = 0
         self.poses: dict[int, np.ndarray] = {}
         self.stats: list[dict] = []
+        self.n_kept = 0
 
     def init(self, frame, poses: dict[int, np.ndarray]) -> None:
         self._img = np.asarray(frame.rgb)
@@ -78,20 +89,22 @@ class EdgeFlowTracker:
         out = {}
         for o in obj_ids:
             P = res.poses.get((1, o))
-            if P is None or res.status.get((1, o)) == "failed" or not np.all(np.isfinite(P)):
+            if P is None or res.status.get((1, o)) == "failed" or not valid_pose(P):
                 continue
             out[o] = np.asarray(P, dtype=np.float64)
         return out
 
     def track(self, frame) -> dict[int, np.ndarray]:
         objs = sorted(self.poses)
+        live = [o for o in objs if valid_pose(self.poses[o])]
         new: dict[int, np.ndarray] = {}
-        if objs:
+        if live:
             if self.mode == "joint":
-                new = self._refine(frame, objs)
+                new = self._refine(frame, live)
             else:
-                for o in objs:
+                for o in live:
                     new.update(self._refine(frame, [o]))
+        self.n_kept += len(objs) - len(new)
         for o, P in new.items():
             self.poses[o] = P
         self._img = np.asarray(frame.rgb)
