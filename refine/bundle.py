@@ -62,6 +62,7 @@ class RefineOptions:
     inner_iters: int = 4
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px (one viewpoint: (4, 2, 1)) scaled by width / 640
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
+    nonkey_chunk: int = 40            # the camera-only frames are refined in chunks of this many (bounded memory)
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
     edge_norm_percentile: float = 100.0
@@ -371,6 +372,49 @@ def _max_change(a, b, move: np.ndarray) -> tuple[float, float]:
     return float(np.abs(move).max()), float(rotation_angle_deg(np.swapaxes(R0, 1, 2) @ R1).max())
 
 
+def _refine_nonkey(views: list, models: dict, obj_ids: list, known: np.ndarray, T_c: np.ndarray, T_m: np.ndarray,
+                   nonkey: list[int], opt: RefineOptions, log: list, stats: dict, with_images) -> dict:
+    """Camera-only refinement of the non-keyframes (objects fixed at their keyframe solution), in
+    chunks of ``opt.nonkey_chunk`` consecutive frames: each chunk is a bundle of its frames (free
+    cameras) and their temporal neighbours (fixed), with only those images in memory, so a video of
+    any length runs in bounded memory. Returns T_c (n, 4, 4), converged, visible (view index,
+    object index) pairs, per-camera covariances, last-iteration camera moves (mm, deg) and whether
+    a linear system stayed singular."""
+    n = len(views)
+    T_c = T_c.copy()
+    out = {"converged": True, "visible": set(), "cam_cov": {}, "numerical_failure": False,
+           "cam_move_mm": np.zeros(n), "cam_move_deg": np.zeros(n)}
+    nk = sorted(nonkey)
+    size = max(1, int(opt.nonkey_chunk))
+    for c0 in range(0, len(nk), size):
+        chunk = nk[c0:c0 + size]
+        nb = opt.temporal_neighbours
+        idx = sorted({i + d for i in chunk for d in range(-nb, nb + 1) if 0 <= i + d < n})
+        local = {i: a for a, i in enumerate(idx)}
+        with_images(idx)
+        free = np.array([i in set(chunk) for i in idx])
+        pbc = BundleProblem([views[i] for i in idx], obj_ids, T_c[idx], T_m, cam_free=free,
+                            obj_free=np.zeros(len(obj_ids), bool))
+        pbc.obj_known = known
+        pairs = [(local[k], local[i]) for (k, i) in _pairs(idx, nb) if i in set(chunk)]
+        st = _Stage(pbc, models, opt, log, stats, [local[i] for i in chunk], pairs, "frames")
+        terms = st.run(opt.nonkey_sigmas_px or auto_sigmas((4.0, 2.0, 1.0), views[0].width))
+        out["converged"] = out["converged"] and st.converged
+        out["numerical_failure"] = out["numerical_failure"] or st.numerical_failure
+        out["visible"] |= {(idx[a], j) for (a, j) in st.visible}
+        T_c[idx] = pbc.T_c
+        for i in chunk:
+            out["cam_move_mm"][i], out["cam_move_deg"][i] = st.cam_move[0][local[i]], st.cam_move[1][local[i]]
+        cov = covariance(pbc, terms) if (opt.compute_uncertainty and terms) else None
+        if cov is not None:
+            for i in chunk:
+                b = pbc.cam_block[local[i]]
+                out["cam_cov"][i] = cov[6 * b:6 * b + 6, 6 * b:6 * b + 6]
+    with_images([])
+    out["T_c"] = T_c
+    return out
+
+
 def _id_list(ids: list[int]) -> str:
     """'3' / '1-5' / '1, 4, 9' for a sorted id list."""
     if len(ids) > 1 and ids == list(range(ids[0], ids[-1] + 1)):
@@ -461,8 +505,11 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     frames = sorted(scene.frames, key=lambda f: f.im_id)
     if not frames:
         raise YcbvssError("scene has no frames", where=f"scene {scene.scene_id}")
-    views = []
-    for f in frames:
+    # images are loaded when a stage needs them and dropped after it (bounded memory for long videos)
+    views = [View(f.im_id, f.camera.K.copy(), f.camera.width, f.camera.height, None) for f in frames]
+
+    def load_image(i: int) -> np.ndarray:
+        f = frames[i]
         img = images.get(f.im_id) if images is not None else None
         if img is None:
             img = f.load_rgb()
@@ -472,7 +519,16 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         if img.shape[:2] != (f.camera.height, f.camera.width):
             raise YcbvssError(f"image size {img.shape[1]}x{img.shape[0]} != camera {f.camera.width}x{f.camera.height}",
                               f.rgb_path, f.where)
-        views.append(View(f.im_id, f.camera.K.copy(), f.camera.width, f.camera.height, img[..., :3].astype(np.uint8)))
+        return np.ascontiguousarray(img[..., :3].astype(np.uint8))
+
+    def with_images(idx) -> None:
+        keep = set(int(i) for i in idx)
+        for i, v in enumerate(views):
+            if i in keep and v.image is None:
+                v.image = load_image(i)
+            elif i not in keep:
+                v.image = None
+
     vidx = {v.im_id: i for i, v in enumerate(views)}
     scene_objs = sorted({i.obj_id for f in frames for i in f.instances} | {o for (_, o) in init})
     obs_raw = {}
@@ -520,6 +576,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                 pb0.T_m[j] = cands[0]
         pb0.T_c = Tc_known
     cam_free_kf = np.zeros(len(kf), bool) if opt.fix_cameras else None
+    with_images(kf)
     pb = BundleProblem([views[i] for i in kf], obj_ids, pb0.T_c[kf], pb0.T_m, cam_free=cam_free_kf, obj_free=known)
     pb.obj_known = known
     stage = _Stage(pb, models, opt, log, stats, list(range(len(kf))),
@@ -566,31 +623,21 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                 T_c[i] = interpolate_T(pa, pb_, (i - a) / (b - a))
             else:                 # no init pose in this frame: interpolate the keyframe cameras
                 T_c[i] = interpolate_T(T_c[a], T_c[b], (i - a) / (b - a))
-        free = np.zeros(n, bool)
-        free[nonkey] = True
-        pbn = BundleProblem(views, obj_ids, T_c, T_m, cam_free=free, obj_free=np.zeros(len(obj_ids), bool))
-        pbn.obj_known = known
-        nk_pairs = [(k, i) for (k, i) in _pairs(list(range(n)), opt.temporal_neighbours) if i in set(nonkey)]
-        st2 = _Stage(pbn, models, opt, log, stats, nonkey, nk_pairs, "frames")
-        terms_nk = st2.run(opt.nonkey_sigmas_px or auto_sigmas((4.0, 2.0, 1.0), views[0].width))
-        converged = converged and st2.converged
-        visible |= {(views[i].im_id, obj_ids[j]) for (i, j) in st2.visible}
-        T_c = pbn.T_c.copy()
-        cov_nk = covariance(pbn, terms_nk) if (opt.compute_uncertainty and terms_nk) else None
-        if cov_nk is not None:
-            for i in nonkey:
-                b = pbn.cam_block[i]
-                cam_cov[i] = cov_nk[6 * b:6 * b + 6, 6 * b:6 * b + 6]
+        nk_res = _refine_nonkey(views, models, obj_ids, known, T_c, T_m, nonkey, opt, log, stats, with_images)
+        T_c = nk_res["T_c"]
+        converged = converged and nk_res["converged"]
+        visible |= {(views[i].im_id, obj_ids[j]) for (i, j) in nk_res["visible"]}
+        cam_cov.update(nk_res["cam_cov"])
 
     cam_move_mm, cam_move_deg = np.zeros(n), np.zeros(n)
     cam_move_mm[kf], cam_move_deg[kf] = stage.cam_move
     if nonkey and not opt.fix_cameras:
-        cam_move_mm[nonkey], cam_move_deg[nonkey] = st2.cam_move[0][nonkey], st2.cam_move[1][nonkey]
+        cam_move_mm[nonkey], cam_move_deg[nonkey] = nk_res["cam_move_mm"][nonkey], nk_res["cam_move_deg"][nonkey]
     obj_move = stage.obj_move
     bad_cam = ~np.all(np.isfinite(T_c.reshape(n, -1)), axis=1)
     bad_obj = ~np.all(np.isfinite(T_m.reshape(len(obj_ids), -1)), axis=1)
     poses, failed = {}, set()
-    num_fail = stage.numerical_failure or (bool(nonkey) and not opt.fix_cameras and st2.numerical_failure)
+    num_fail = stage.numerical_failure or (bool(nonkey) and not opt.fix_cameras and nk_res["numerical_failure"])
     for i in range(n):
         for j in range(len(obj_ids)):
             if not known[j]:
@@ -615,7 +662,10 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                                          np.where(bad_obj[:, None, None], pb0.T_m, T_m), cam_cov, obj_cov, cross,
                                          [v.im_id for v in views], obj_ids, known & ~bad_obj))
     t0 = time.perf_counter()
-    quality = _object_quality(views, models, obj_ids, known & ~bad_obj, poses, opt)
+    q_idx = np.unique(np.round(np.linspace(0, n - 1, min(8, n))).astype(int))
+    with_images(q_idx)
+    quality = _object_quality([views[i] for i in q_idx], models, obj_ids, known & ~bad_obj, poses, opt)
+    with_images([])
     stats["confidence_s"] = time.perf_counter() - t0
     status, confidence, reasons = {}, {}, {}
     for (im, oid), P in poses.items():

@@ -213,7 +213,7 @@ def run_suite(src: str | Path, out: str | Path, suite: str = "ycbv21", scene_ids
     """Build the suite (cached) under ``out/dataset``, run what is not done yet, write the report
     into ``out/report``. Returns {"rows": path, "tables": {name: path}, "n_rows": int}."""
     from .suite import build_suite, clips_of
-    from .suite_report import write_report
+    from .suite_report import visibility, write_report
 
     out = Path(out)
     models, specs = build_suite(src, out / "dataset", suite, scene_ids=scene_ids, quiet=quiet)
@@ -224,7 +224,7 @@ def run_suite(src: str | Path, out: str | Path, suite: str = "ycbv21", scene_ids
             runs += [Run(c, lv, s) for lv in CAPTURE_LEVELS for s in capture_seeds]
     rows_path = execute(runs, out / "dataset", models, out / "runs")
     rows = read_rows(rows_path) if rows_path.is_file() else []
-    tables = write_report(rows, models, out / "report")
+    tables = write_report(rows, models, out / "report", visibility(out / "dataset", [s.scene_id for s in specs]))
     write_json_atomic(out / "report" / "suite.json", {
         "suite": suite, "scenes": [s.scene_id for s in specs], "kinds": list(kinds), "seeds": list(seeds),
         "bias": bias, "ablation": ablation, "capture_kinds": list(capture_kinds), "n_rows": len(rows),
