@@ -59,6 +59,16 @@ def ranking_markdown(scores: list[TrackerScores], names: dict) -> str:
             cells.append(f"**{s}**" if v is not None and len(rows) > 1 and v == best[o] else s)
         lines.append("| " + " | ".join([r["name"]] + cells + [_f(r["avg"]), f"{_f(r['add'])} [{r['add_rank']}]",
                                                             f"{_f(r['prj'])} [{r['prj_rank']}]", _f(r["sr"])]) + " |")
+    lens = sorted({L for s in scores for L in s.per_length})
+    by_name = {s.name: s for s in scores}
+    lines += ["", "ADD-PRJ-AUC by subsequence length (short: precision, long: robustness):", "",
+              "| method | " + " | ".join(f"L={L}" for L in lens) + " | ms/frame |",
+              "|:---|" + "---:|" * (len(lens) + 1)]
+    for r in rows:
+        s = by_name[r["name"]]
+        ms = s.counts.get("mean_time_s")
+        lines.append("| " + " | ".join([r["name"]] + [_f(s.per_length.get(L, {}).get("add_prj_auc")) for L in lens]
+                                        + ["-" if ms is None or ms != ms else f"{1e3 * ms:.0f}"]) + " |")
     return ("ADD-PRJ-AUC per object (ADD-S for the symmetric set), the mean over objects (Avg.), "
             "ADD(-S)-AUC and PRJ-AUC with ranks in brackets, SR at 5 cm / 5 deg for reference.\n\n"
             + "\n".join(lines) + "\n")

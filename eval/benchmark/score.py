@@ -155,7 +155,9 @@ def score_tracker(name: str, gti: GtIndex, results: dict[int, dict], points: Poi
             if sel.any():
                 pl[o] = object_scores({k: err[k][sel] for k in err}, add_bound_mm, prj_bound_px)
         per_length[int(L)] = {**overall_scores(pl), "n": int((gti.length == L).sum())}
-    counts = {"n_scored": int(n), "n_estimates": int(have.sum()), "n_missing": int((~have).sum())}
+    times = [r[2] for rows in results.values() for r in rows.values() if len(r) > 2 and r[2] >= 0]
+    counts = {"n_scored": int(n), "n_estimates": int(have.sum()), "n_missing": int((~have).sum()),
+              "mean_time_s": float(np.mean(times)) if times else float("nan")}
     return TrackerScores(name, err, per_object, overall_scores(per_object), per_length, counts)
 
 
