@@ -23,11 +23,15 @@ from pathlib import Path
 from typing import Iterable
 
 import numpy as np
+from PIL import Image
 
 from ..camera import Camera, check_K
 from ..errors import YcbvssError
-from ..geometry.so3 import orthonormality_error
+from ..geometry.so3 import exp_so3, orthonormality_error
 from ..scene import Dataset, Frame, Instance, ObjectModel, Scene
+from .atomic import atomic_path, write_text_atomic
+from .images import write_png
+from .mesh import load_textured_mm
 
 BCOT_BODY_NAMES = (
     "3D Touch", "Ape", "Auto GPS", "Bracket", "Cat", "Deadpool", "Driller", "FlashLight", "Jack",
@@ -167,7 +171,6 @@ def load_bcot_models(root: str | Path, bodies: Iterable[str] | None = None) -> d
 def _image_size(path: Path | None, default=(640, 480)) -> tuple[int, int]:
     if path is None:
         return default
-    from PIL import Image
     try:
         with Image.open(path) as im:
             return int(im.size[0]), int(im.size[1])
@@ -230,8 +233,6 @@ def load_bcot_dataset(root: str | Path, scenes: Iterable[str] | None = None) -> 
 def write_bcot_sequence(root: str | Path, scene: str, body: str, K: np.ndarray, poses: list[np.ndarray],
                         images: list[np.ndarray] | None = None) -> Path:
     """Write one sequence (K.txt, pose.txt and ``NNNN.png`` images, RGB uint8) atomically per file."""
-    from .atomic import write_text_atomic
-    from .images import write_png
     root = Path(root)
     write_text_atomic(root / scene / "K.txt", format_K_txt(K))
     sdir = root / scene / body
@@ -244,7 +245,6 @@ def write_bcot_sequence(root: str | Path, scene: str, body: str, K: np.ndarray, 
 def fixture_poses(n_frames: int, distance_mm: float, rng: np.random.Generator, speed_deg: float = 3.0,
                   speed_mm: float = 6.0) -> list[np.ndarray]:
     """A fast, smooth object motion (BCOT-like): random rotation drift plus a lateral wobble."""
-    from ..geometry.so3 import exp_so3
     R = exp_so3(rng.normal(size=3))
     w = rng.normal(size=3)
     w *= np.radians(speed_deg) / np.linalg.norm(w)
@@ -266,9 +266,7 @@ def make_bcot_fixture(out: str | Path, mesh_path: str | Path, body: str = "Cat",
     """A small BCOT-layout dataset: ``body`` (the mesh at ``mesh_path``, scaled to mm by
     ``unit_scale``) moving in each of ``scenes``, frames rendered with the fast renderer (textured,
     headlight-shaded) over a grey background. Deterministic for ``seed``. Returns ``out``."""
-    from ..render import Renderer
-    from .atomic import atomic_path
-    from .mesh import load_textured_mm
+    from ..render import Renderer  # lazy: OpenGL context, only for the fixture
     out = Path(out)
     mesh, tex = load_textured_mm(mesh_path, unit_scale)
     v, fc = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)

@@ -30,9 +30,11 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ...errors import YcbvssError
+from ...io.atomic import read_json
 from .sources import Sequence
 
 VERSION = "1.0"
@@ -91,7 +93,6 @@ class ProtocolOptions:
 
 
 def _hull(pts_mm: np.ndarray, T: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, float]:
-    import cv2
     X = pts_mm @ T[:3, :3].T + T[:3, 3]
     z = X[:, 2]
     if np.any(z <= 1.0):
@@ -106,7 +107,6 @@ def _hull(pts_mm: np.ndarray, T: np.ndarray, K: np.ndarray) -> tuple[np.ndarray,
 def occluders(gt: dict[int, np.ndarray], K: np.ndarray, points: dict[int, np.ndarray], obj_ids: list[int],
               min_overlap: float = 0.01) -> list[int]:
     """Objects of ``obj_ids`` that occlude another one of them in a frame (see module doc)."""
-    import cv2
     hulls = {o: _hull(points[o], gt[o], K) for o in obj_ids}
     areas = {o: float(cv2.contourArea(h)) if len(h) >= 3 else 0.0 for o, (h, _) in hulls.items()}
     out = set()
@@ -245,7 +245,6 @@ def check_config(cfg: dict, path: str | Path = "") -> dict:
 
 
 def read_config(path: str | Path) -> dict:
-    from ...io.atomic import read_json
     path = Path(path)
     if not path.is_file():
         raise YcbvssError("benchmark config not found", path)

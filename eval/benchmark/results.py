@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import YcbvssError
+from ...io.atomic import read_json, write_text_atomic
 
 HEADER = "im_id,obj_id,R,t,time"
 
@@ -41,7 +42,6 @@ def format_results(rows: list[tuple[int, int, np.ndarray, float]]) -> str:
 
 
 def write_results(out_dir: str | Path, sub_id: int, rows) -> Path:
-    from ...io.atomic import write_text_atomic
     p = result_path(out_dir, sub_id)
     write_text_atomic(p, format_results(rows))
     return p
@@ -89,7 +89,6 @@ def read_result_dir(out_dir: str | Path, cfg: dict) -> tuple[dict[int, dict], di
     """All result files of a run directory for ``cfg``'s subsequences: ({sub_id: rows}, info) with
     info = {"name", "n_files", "n_missing_files", "run": run.json or {}}. A run.json whose config
     hash differs from ``cfg`` is an error (results of another configuration)."""
-    from ...io.atomic import read_json
     d = Path(out_dir)
     if not d.is_dir():
         raise YcbvssError("results folder not found", d)

@@ -26,9 +26,11 @@ from typing import Callable, Protocol, runtime_checkable
 import numpy as np
 
 from ...errors import YcbvssError
+from ...io.atomic import read_json, write_json_atomic
 from ...progress import progress
 from .protocol import frame_K, init_pose
 from .results import config_sha256, result_path, write_results
+from .sources import load_models, load_scene
 
 
 @dataclass
@@ -71,7 +73,6 @@ class SceneCache:
     """Loads each scene (frames with image paths) once; see :func:`sources.load_scene`."""
 
     def __init__(self, root: Path, layout: str, split: str, models: dict):
-        from .sources import load_scene
         self._load = load_scene
         self.root, self.layout, self.split, self.models = root, layout, split, models
         self._sid = None
@@ -112,8 +113,6 @@ def run_benchmark(cfg: dict, make_tracker: Callable[[], object], out_dir: str | 
     ``make_tracker()`` returns a tracker (see module doc); ``root`` overrides the dataset root in the
     config; ``frames_of(scene_id, im_id)`` overrides the frame source (a ``Frame`` with
     ``load_rgb``/``load_depth_mm``). Returns {"done", "skipped", "seconds", "frames"}."""
-    from ...io.atomic import read_json, write_json_atomic
-    from .sources import load_models
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ds = cfg["dataset"]

@@ -13,6 +13,13 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import YcbvssError
+from ...geometry.so3 import project_to_so3
+from ...io.atomic import read_json
+from ...io.bcot import (BCOT_TEST_SCENES, body_obj_ids, is_bcot_root, list_sequences, load_bcot_dataset,
+                        load_bcot_models, load_bcot_sequence)
+from ...io.bop import load_bop_scene, read_scene_camera, read_scene_gt, select_scene_ids
+from ...io.bop import load_models as load_bop_models
+from ...io.ycbv import list_frames, list_videos, load_ycbv_models, load_ycbv_scene, read_meta_frame
 from ...progress import progress
 
 BOP_SPLITS = ("test", "val", "train_real", "train_synt", "train_pbr", "train")
@@ -39,7 +46,6 @@ class Sequence:
 
 def detect_layout(root: str | Path) -> str:
     """``ycbv`` (data/ + models/<name>/), ``bcot`` (models/*.obj + <scene>/K.txt) or ``bop``."""
-    from ...io.bcot import is_bcot_root
     root = Path(root)
     if not root.is_dir():
         raise YcbvssError("dataset not found (a BOP, YCB-Video or BCOT root folder)", root)
@@ -62,17 +68,13 @@ def load_models(root: str | Path, layout: str, symmetric_obj_ids=(13,)) -> dict:
     """obj_id -> ObjectModel of a dataset root."""
     root = Path(root)
     if layout == "ycbv":
-        from ...io.ycbv import load_ycbv_models
         return load_ycbv_models(root, symmetric_obj_ids)
     if layout == "bcot":
-        from ...io.bcot import load_bcot_models
         return load_bcot_models(root)
-    from ...io.bop import load_models as load_bop_models
     names = None if (root / "models" / "ycbvss_objects.json").is_file() else "auto"
     models = load_bop_models(root / "models", symmetric_obj_ids, names=names)
     meta = root / "models" / "ycbvss_objects.json"
     if meta.is_file():
-        from ...io.atomic import read_json
         for k, v in read_json(meta, "object metadata").items():
             if int(k) in models:
                 models[int(k)].name = str(v.get("name", models[int(k)].name))
@@ -80,7 +82,6 @@ def load_models(root: str | Path, layout: str, symmetric_obj_ids=(13,)) -> dict:
 
 
 def _so3(T) -> np.ndarray:
-    from ...geometry.so3 import project_to_so3
     T = np.array(T, dtype=np.float64)
     T[:3, :3] = project_to_so3(T[:3, :3])
     return T
@@ -111,7 +112,6 @@ def load_sequences(root: str | Path, layout: str | None = None, split: str | Non
     info: dict = {"root": str(root.resolve()), "layout": layout}
     seqs: list[Sequence] = []
     if layout == "ycbv":
-        from ...io.ycbv import list_frames, list_videos, read_meta_frame
         vids = list_videos(root) if scenes is None else [int(s) for s in scenes]
         info.update(name="ycbv", split="data")
         for v in progress(vids, desc="read GT", unit="video"):
@@ -126,7 +126,6 @@ def load_sequences(root: str | Path, layout: str | None = None, split: str | Non
                     gt[im].setdefault(int(o), _so3(T))
             seqs.append(Sequence(v, f"{v:04d}", ims, K, gt))
     elif layout == "bcot":
-        from ...io.bcot import BCOT_TEST_SCENES, list_sequences, load_bcot_dataset
         have = sorted({s for s, _ in list_sequences(root)})
         if bcot_scenes is None:
             bcot_scenes = [s for s in BCOT_TEST_SCENES if s in have] or have
@@ -138,7 +137,6 @@ def load_sequences(root: str | Path, layout: str | None = None, split: str | Non
             K, gt = _gt_of_frames(sc.frames)
             seqs.append(Sequence(sid, ds.sequence_names[sid], [f.im_id for f in sc.frames], K, gt))
     elif layout == "bop":
-        from ...io.bop import read_scene_camera, read_scene_gt, select_scene_ids
         split = split or detect_split(root)
         sdir = root / split
         if not sdir.is_dir():
@@ -166,15 +164,12 @@ def load_scene(root: str | Path, layout: str, split: str, scene_id: int, models:
     """The :class:`ycbvss.scene.Scene` of one sequence, with image paths (for running trackers)."""
     root = Path(root)
     if layout == "ycbv":
-        from ...io.ycbv import load_ycbv_scene
         return load_ycbv_scene(root, scene_id, models)
     if layout == "bcot":
-        from ...io.bcot import body_obj_ids, list_sequences, load_bcot_sequence
         seqs = list_sequences(root)
         if not 0 <= scene_id < len(seqs):
             raise YcbvssError(f"BCOT sequence {scene_id} not found ({len(seqs)} sequences)", root)
         s, b = seqs[scene_id]
         ids = body_obj_ids({bb for _, bb in seqs} | {p.stem for p in (root / "models").glob("*.obj")})
         return load_bcot_sequence(root, s, b, scene_id, ids[b], need_images=True)
-    from ...io.bop import load_bop_scene
     return load_bop_scene(root / split, scene_id, models)
