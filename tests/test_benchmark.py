@@ -257,6 +257,21 @@ def test_resume_external_csv_and_bad_input(real_cfg, capsys):
     assert len(err) == 1 and "broken.json" in err[0] and "subsequence 2" in err[0]
 
 
+class DepthTracker(StaticTracker):
+    modality = "rgbd"
+
+    def track(self, frame):
+        assert frame.depth_mm is not None and frame.depth_mm.shape == frame.rgb.shape[:2]
+        assert 300 < np.median(frame.depth_mm[frame.depth_mm > 0]) < 3000      # mm
+        return super().track(frame)
+
+
+def test_rgbd_tracker_gets_depth(real_cfg):
+    d, cfgp, cfg, gt, seqs = real_cfg
+    info = run_benchmark(cfg, lambda: DepthTracker(), d / "rgbd", subsequence_ids=[0, 1])
+    assert info["done"] == 2 and json.loads((d / "rgbd" / "run.json").read_text())["modality"] == "rgbd"
+
+
 def test_baseline_tracker_on_real_frames(real_cfg):
     """The shipped baseline runs end to end on real frames (two short subsequences) and tracks."""
     d, cfgp, cfg, gt, seqs = real_cfg

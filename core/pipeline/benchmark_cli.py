@@ -66,8 +66,8 @@ def register(subparsers) -> None:
     s.add_argument("--out", required=True)
     s.add_argument("--dataset", default=None, help="dataset root (default: the one in the config)")
     s.add_argument("--symmetric", default=None,
-                   help="obj_ids scored with ADD-S, comma-separated, or 'none' (default ycbv: 13 = 024_bowl; "
-                        "bcot: none)")
+                   help="obj_ids scored with ADD-S, comma-separated, 'paper' (13 = 024_bowl) or 'none' "
+                        "(default ycbv: paper; bcot: none)")
     s.add_argument("--adds-all", action="store_true", help="also compute ADD-S for every object (errors CSV)")
     s.add_argument("--no-curves", action="store_true")
     s.add_argument("--no-frame-errors", action="store_true", help="skip errors_<tracker>.csv")
@@ -145,6 +145,8 @@ def cmd_score(args: argparse.Namespace) -> int:
         sym = (13,) if cfg["protocol"] == "ycbv" else ()
     elif args.symmetric.strip().lower() == "none":
         sym = ()
+    elif args.symmetric.strip().lower() == "paper":
+        sym = (13,)
     else:
         sym = _ints(args.symmetric, "--symmetric")
     scenes = sorted({int(s["scene_id"]) for s in cfg["subsequences"]})
