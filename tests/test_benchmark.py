@@ -4,7 +4,6 @@ on the real shared YCB-V clips."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
