@@ -46,7 +46,7 @@ def register(subparsers) -> None:
                    help="ycbv: probability to remove one occluding object from a subsequence (default 0.5)")
     m.add_argument("--exclude", default=None, help="obj_ids never tracked (default ycbv: 16 = 036_wood_block)")
     m.add_argument("--split", default=None, help="BOP split folder (default: test, val, ... whichever exists)")
-    m.add_argument("--scenes", default=None, help="only these scene ids / videos (comma-separated)")
+    m.add_argument("--scenes", default=None, help="only these scene ids / videos, e.g. 48-59 (the YCB-V test videos) or 48,50")
     m.add_argument("--bcot-scenes", default=None,
                    help="BCOT test scenes, comma-separated (default: ycbvss's 11-scene split, see ycbvss.io.bcot)")
     m.set_defaults(func=cmd_make)
@@ -83,7 +83,8 @@ def cmd_make(args: argparse.Namespace) -> int:
     layout = detect_layout(args.dataset)
     if args.protocol == "bcot" and layout != "bcot":
         raise YcbvssError("protocol bcot needs a BCOT root (models/*.obj, <scene>/K.txt)", args.dataset)
-    scenes = list(_ints(args.scenes, "--scenes")) if args.scenes else None
+    from ..io.ycbv import parse_videos
+    scenes = parse_videos(args.scenes, "--scenes") if args.scenes else None
     bcot_scenes = [x for x in args.bcot_scenes.split(",") if x] if args.bcot_scenes else None
     seqs, info = load_sequences(args.dataset, layout, args.split, scenes, bcot_scenes)
     models = load_models(args.dataset, layout)
