@@ -30,16 +30,15 @@ def _synthetic(n_seq=12, seed=3):
     for s in range(n_seq):
         n = int(rng.integers(1000, 2500))
         objs = sorted(set(rng.choice(np.r_[1:16, 17:22], 5, replace=False).tolist()) | ({16} if s % 2 else set()))
-        gt = {}
         base = {o: np.r_[rng.uniform(-120, 120, 2), rng.uniform(700, 1100)] for o in objs}
-        for im in range(1, n + 1):
-            d = {}
-            for o in objs:
-                T = np.eye(4)
-                T[:3, :3] = exp_so3(np.array([0.0, 0.001 * im, 0.0]))
-                T[:3, 3] = base[o]
-                d[o] = T
-            gt[im] = d
+        Ts = np.tile(np.eye(4), (n, 1, 1))
+        Ts[:, :3, :3] = exp_so3(np.c_[np.zeros(n), 0.001 * np.arange(1, n + 1), np.zeros(n)])
+        per_obj = {}
+        for o in objs:
+            To = Ts.copy()
+            To[:, :3, 3] = base[o]
+            per_obj[o] = To
+        gt = {im: {o: per_obj[o][im - 1] for o in objs} for im in range(1, n + 1)}
         seqs.append(Sequence(48 + s, f"{48 + s:06d}", list(range(1, n + 1)), {im: K for im in range(1, n + 1)}, gt))
     return seqs, models
 

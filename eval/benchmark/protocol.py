@@ -191,7 +191,7 @@ def make_protocol(sequences: list[Sequence], dataset_info: dict, options: Protoc
                        "length": L, "step": step, "direction": direction, "objects": objs, "removed": removed,
                        "K": [float(x) for x in np.asarray(K0).reshape(9)],
                        "init": {str(o): _pose_json(s.gt[f0][o]) for o in objs}}
-                if any(not np.allclose(s.K[f], K0, rtol=0, atol=1e-9) for f in frames):
+                if np.abs(np.stack([s.K[f] for f in frames]) - K0).max() > 1e-9:
                     sub["K_frames"] = {str(f): [float(x) for x in np.asarray(s.K[f]).reshape(9)] for f in frames}
                 subs.append(sub)
     obj_ids = sorted({o for s in seqs for fr in s.gt.values() for o in fr})
