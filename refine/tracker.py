@@ -110,3 +110,11 @@ class EdgeFlowTracker:
         self._img = np.asarray(frame.rgb)
         self._K = np.asarray(frame.K, dtype=np.float64)
         return {o: self.poses[o].copy() for o in objs}
+
+
+class EdgeFlowTrackerPerObject(EdgeFlowTracker):
+    """:class:`EdgeFlowTracker` in ``per_object`` mode (one two-view bundle per object and frame:
+    independent object motions, about n_objects times the cost)."""
+
+    def __init__(self, models: dict, options: RefineOptions | None = None):
+        super().__init__(models, options, mode="per_object")

@@ -1,8 +1,9 @@
 """`ycbvss benchmark make|run|score`: the paper's tracking benchmark (see ycbvss.eval.benchmark).
 
 - ``make`` reads only GT and camera files and writes the subsequence JSON; prints its summary.
-- ``run`` runs a tracker (``baseline`` = refine's edge + flow terms frame to frame, ``static``, or
-  ``module:Class``) on every subsequence, one results CSV per subsequence, resuming.
+- ``run`` runs a tracker (``baseline`` = refine's edge + flow terms frame to frame, all objects in
+  one bundle; ``baseline-per-object``; ``static``; or ``module:Class``) on every subsequence,
+  one results CSV per subsequence, resuming.
 - ``score`` scores one or more results folders: ranking table (.md/.tex/.csv), scores.json,
   curves.png, per-frame errors.
 """
@@ -12,6 +13,7 @@ import argparse
 
 TRACKERS = {
     "baseline": "ycbvss.refine.tracker:EdgeFlowTracker",
+    "baseline-per-object": "ycbvss.refine.tracker:EdgeFlowTrackerPerObject",
     "static": "ycbvss.eval.benchmark.run:StaticTracker",
 }
 
