@@ -136,7 +136,9 @@ def make_protocol(sequences: list[Sequence], dataset_info: dict, options: Protoc
         raise YcbvssError("no sequence with at least 2 frames")
     smin, smax = opt.steps
     lmax = max(opt.lengths)
-    per_round = {L: max(1, int(round(lmax / L))) for L in opt.lengths}
+    lcm = int(np.lcm.reduce(np.array(opt.lengths, dtype=np.int64)))
+    unit = lcm if lcm <= 4 * lmax else lmax       # exact equality whenever the lcm is small
+    per_round = {L: max(1, int(round(unit / L))) for L in opt.lengths}
     frames_round = sum(L * n for L, n in per_round.items())
     n_total = sum(len(s.im_ids) for s in seqs)
     rounds = max(1, int(round(opt.coverage * n_total / frames_round)))
