@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import YcbvssError
-from ..io.atomic import write_json_atomic, write_text_atomic
+from ..io.atomic import write_json_atomic
+from ..refine.confidence import SIGMA_SCALE
 from .suite import Clip, SuiteScene, clip_scene, clips_of
 
 ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant", "im_id", "obj_id",
@@ -127,10 +128,11 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 "add_mm": float(E["adds_mm"][n] if m.symmetric else E["add_mm"][n]),
                 "init_add_mm": float(E0["adds_mm"][n] if m.symmetric else E0["add_mm"][n]),
                 "init_prj_px": float(E0["prj_px"][n]),
-                "sigma_tx_mm": sp["sigma_t_mm"][0] if sp else float("nan"),
-                "sigma_ty_mm": sp["sigma_t_mm"][1] if sp else float("nan"),
-                "sigma_tz_mm": sp["sigma_t_mm"][2] if sp else float("nan"),
-                "sigma_r_deg": sp["sigma_r_deg"] if sp else float("nan"),
+                # the covariance sigmas before calibration (the report applies confidence.SIGMA_SCALE)
+                "sigma_tx_mm": sp["sigma_t_mm"][0] / SIGMA_SCALE[0] if sp else float("nan"),
+                "sigma_ty_mm": sp["sigma_t_mm"][1] / SIGMA_SCALE[1] if sp else float("nan"),
+                "sigma_tz_mm": sp["sigma_t_mm"][2] / SIGMA_SCALE[2] if sp else float("nan"),
+                "sigma_r_deg": sp["sigma_r_deg"] / SIGMA_SCALE[3] if sp else float("nan"),
                 "status": res.status.get(k, "failed"), "confidence": float(res.confidence.get(k, 0.0)),
                 "contour_px": float(res.quality.get(oid, {}).get("contour_px", float("nan"))),
                 "time_s": dt, "n_frames": len(sc.frames)})
