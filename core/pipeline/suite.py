@@ -127,7 +127,8 @@ def suite_models(src: str | Path, root: Path, obj_ids=None) -> dict:
         else:
             raise YcbvssError("the suite needs the YCB-V models: give a YCB-Video root (models/<name>/) or a "
                               "BOP root with models/models_info.json", src)
-    models = load_models(mdir)
+    from ..manifest import object_names
+    models = load_models(mdir, names={o: n for o, n in object_names().items() if (mdir / f"obj_{o:06d}.ply").is_file()})
     missing = [o for o in need if o not in models]
     if missing:
         raise YcbvssError(f"the suite needs the YCB-V models of obj_ids {missing}", mdir)

@@ -147,7 +147,9 @@ def status_table(rows: list[dict]) -> Table:
 
 
 def _covered(r: dict, k: float = 2.0) -> bool:
-    return all(np.isfinite(r[s]) and r[e] <= k * r[s] for e, s in SIGMA_AXES)
+    """The pose's error is within k calibrated sigmas on every axis."""
+    from ..refine.confidence import SIGMA_SCALE
+    return all(np.isfinite(r[s]) and r[e] <= k * f * r[s] for (e, s), f in zip(SIGMA_AXES, SIGMA_SCALE))
 
 
 def capture_table(rows: list[dict]) -> tuple[Table, dict]:
