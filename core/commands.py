@@ -71,6 +71,10 @@ def run_convert_ycbv(args: argparse.Namespace) -> int:
     print(f"converted {len(r['videos'])} videos ({r['frames_written']} frames written, "
           f"{r['frames_skipped']} already done), {len(r['models'])} models -> {r['out']} "
           f"in {r['seconds']:.1f} s (models {r['seconds_models']:.1f} s)")
+    sp = r["splits"]
+    print(f"split{'s' if len(sp) > 1 else ''}: {', '.join(sp)} (BOP ycbv: videos 48-59 are 'test', the others "
+          f"'train_real'); targets, models_eval/ and dataset_info.md written")
+    print(f"next: ycbvss synth --dataset {r['out']} --split {sp[0]} --out YCBVSS_ROOT")
     return 0
 
 

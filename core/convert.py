@@ -136,14 +136,19 @@ def _scene_complete(scene_dir: Path, im_ids: list[int]) -> bool:
         return False
 
 
-def _write_camera_jsons(out: Path) -> None:
-    from .io.atomic import write_json_atomic
-    from .manifest import cameras
-    for name, cam in cameras().items():
-        K = np.asarray(cam["K"], np.float64)
-        write_json_atomic(out / f"camera_{name}.json", {
-            "cx": K[0, 2], "cy": K[1, 2], "depth_scale": 0.1, "fx": K[0, 0], "fy": K[1, 1],
-            "height": int(cam["height"]), "width": int(cam["width"])})
+def dataset_info_md(splits, obj_ids, delta_mm: float) -> str:
+    """dataset_info.md of a converted YCB-V root."""
+    from . import __version__
+    return (f"# YCB-Video in BOP format (written by ycbvss {__version__}, `ycbvss convert ycbv`)\n\n"
+            f"- splits: {', '.join(splits)}; targets: "
+            + ", ".join(f"`{'test' if s == 'test' else s}_targets_bop19.json`" for s in splits) + "\n"
+            f"- models/: the YCB-Video textured meshes recentred on their bounding-box centre, in mm "
+            f"(objects {', '.join(str(o) for o in obj_ids)}); NOT dilated: the GT poses refer to these models.\n"
+            "- models_eval/: the same models uniformly remeshed for evaluation (pymeshlab), same models_info.json.\n"
+            "- poses: the original YCB-Video annotations (t_bop = 1000 (t + R c)); rgb/depth byte copies "
+            "(depth_scale 0.1).\n"
+            f"- scene_gt_info.json, mask/, mask_visib/: bop_toolkit calc_gt_info rules (delta {delta_mm:g} mm, "
+            "missing depth visible, 3x canvas for px_count_all/bbox_obj, bbox w = x_max - x_min).\n")
 
 
 def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | None = None,
@@ -160,7 +165,9 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
     for the model conversion.
     """
     from .gt_info import compute_gt_info
+    from .io.atomic import write_text_atomic
     from .io.bop import BopSceneWriter
+    from .io.bop_dataset import write_camera_files, write_models_eval, write_targets
     from .io.images import read_depth_mm
     from .io.ycbv import list_frames, load_ycbv_dataset
     from .progress import progress
@@ -174,7 +181,7 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
     centers, bop_models = convert_models(ds.models, out / "models", overwrite, ids, show_progress,
                                          texture_max_px, workers)
     t_models = time.perf_counter() - t0
-    _write_camera_jsons(out)
+    write_camera_files(out)
     frame_ids = {v: list_frames(src, v) for v in ds.scene_ids}      # from file names only
     n_frames = sum(len(x) for x in frame_ids.values())
     done = skipped = 0
@@ -213,7 +220,12 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
             bar.update(1)
         writer.close()
     bar.close()
+    splits = sorted({split or default_split(v) for v in ds.scene_ids})
+    for sp in splits:
+        write_targets(out, sp)
+    write_models_eval(out, show_progress=show_progress, overwrite=overwrite)
+    write_text_atomic(out / "dataset_info.md", dataset_info_md(splits, sorted(bop_models), delta_mm))
     dt = time.perf_counter() - t0
-    return {"out": str(out), "videos": list(ds.scene_ids), "frames_written": done, "frames_skipped": skipped,
+    return {"out": str(out), "videos": list(ds.scene_ids), "splits": splits, "frames_written": done, "frames_skipped": skipped,
             "models": sorted(bop_models), "seconds": dt, "seconds_models": t_models,
             "centers_mm": {k: v.tolist() for k, v in centers.items()}}

@@ -1,23 +1,32 @@
-"""BOP masks and ``scene_gt_info`` of a frame, with the fast renderer.
+"""BOP masks and ``scene_gt_info`` of a frame, with the fast renderer, by BOP's rules.
 
-For instance k of a frame (all instances rendered together, one z-buffer):
+The definitions are those of bop_toolkit's ``scripts/calc_gt_info.py`` and
+``scripts/calc_gt_masks.py`` (BOP19 visibility), re-implemented here. For instance k of a frame,
+each object is rendered ALONE (no mutual occlusion in the renderer):
 
-- full silhouette ``mask`` (BOP mask/): the object rendered alone (unoccluded);
-- visible mask ``mask_visib``: pixels where the renderer's instance map says object k is the
-  front-most surface **and** (the real depth is invalid (0) **or** rendered depth <= real depth
-  + ``delta_mm``). ``delta_mm`` = 15 mm is BOP's default tolerance. (BOP compares distances
-  along the ray; we compare z-depths, which differ by the same per-pixel factor >= 1: the
-  same test up to ~1 % of delta.) Without a real depth image the visible mask is the
-  front-most test alone.
-- ``bbox_obj`` = [x, y, w, h] of the full silhouette, including the part outside the image
-  (re-rendered on a 3x canvas when the silhouette touches the border), ``bbox_visib`` = the
-  bbox of the visible mask ([-1, -1, -1, -1] if empty); ``px_count_all`` = full-silhouette
-  pixels inside the image; ``px_count_valid`` = those with valid (> 0) real depth (= all without
-  a depth image); ``px_count_visib``; ``visib_fract`` = visib / all (0 if all = 0).
+- ``mask`` (mask/): the object's silhouette in the image (rendered depth > 0);
+- ``mask_visib`` (mask_visib/): pixels of ``mask`` where the scene depth is missing (0) or the
+  rendered distance exceeds the scene's distance by at most ``delta_mm`` (15 mm). Distances are
+  along the camera ray: ``dist = depth * sqrt(((x - cx)/fx)^2 + ((y - cy)/fy)^2 + 1)`` at integer
+  pixel coordinates, compared in float32. Hence ``mask_visib`` is a subset of ``mask``. The scene
+  depth is the depth image of the dataset (real for ``convert``, the written synthetic depth for
+  ``synth``). Without a depth image every pixel of the mask counts as visible (missing depth).
+- ``px_count_all``: pixels of the silhouette on a 3x canvas centred on the image (the part
+  outside the image counts); ``px_count_valid``: pixels of ``mask`` with scene depth > 0;
+  ``px_count_visib``: pixels of ``mask_visib``; ``visib_fract = px_count_visib / px_count_all``
+  (0 if the silhouette is empty), so ``visib_fract <= 1``.
+- ``bbox_obj``: [x, y, w, h] of the 3x-canvas silhouette in image coordinates (may start
+  outside the image), ``bbox_visib`` of ``mask_visib``, with BOP's ``calc_2d_bbox`` convention
+  ``w = x_max - x_min`` (not + 1). As in BOP, both are [-1, -1, -1, -1] when
+  ``px_count_visib`` is 0.
+
+:func:`front_most_masks` gives the stricter visible masks of the older ycbvss rule (the object
+is also front-most among the annotated objects), an optional extra output only.
 """
 from __future__ import annotations
 
 import numpy as np
+import trimesh
 
 from .scene import Frame, ObjectModel
 
@@ -25,26 +34,43 @@ DELTA_MM = 15.0
 
 
 def bbox_xywh(mask: np.ndarray) -> list[int]:
-    """[x, y, w, h] of the True pixels (w = x_max - x_min + 1), or [-1, -1, -1, -1] if none."""
+    """BOP ``calc_2d_bbox`` of the True pixels: [x_min, y_min, x_max - x_min, y_max - y_min];
+    [-1, -1, -1, -1] if none."""
     ys = np.flatnonzero(mask.any(axis=1))
     xs = np.flatnonzero(mask.any(axis=0))
     if xs.size == 0:
         return [-1, -1, -1, -1]
-    return [int(xs[0]), int(ys[0]), int(xs[-1] - xs[0] + 1), int(ys[-1] - ys[0] + 1)]
+    return [int(xs[0]), int(ys[0]), int(xs[-1] - xs[0]), int(ys[-1] - ys[0])]
 
 
-def visible_mask(front_mask: np.ndarray, depth_render_mm: np.ndarray,
-                 depth_real_mm: np.ndarray | None, delta_mm: float = DELTA_MM) -> np.ndarray:
-    """front-most AND (real depth invalid OR rendered depth <= real depth + delta)."""
-    if depth_real_mm is None:
-        return front_mask.copy()
-    ok = (depth_real_mm <= 0) | (depth_render_mm <= depth_real_mm + delta_mm)
-    return front_mask & ok
+def ray_factor(K: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Per-pixel factor depth -> distance along the ray, at integer pixel coordinates (float64)."""
+    K = np.asarray(K, np.float64)
+    xs = (np.arange(width, dtype=np.float64) - K[0, 2]) / K[0, 0]
+    ys = (np.arange(height, dtype=np.float64) - K[1, 2]) / K[1, 1]
+    return np.sqrt(xs[None, :] ** 2 + ys[:, None] ** 2 + 1.0)
+
+
+def visible_mask(depth_obj_mm: np.ndarray, depth_scene_mm: np.ndarray | None, factor: np.ndarray,
+                 delta_mm: float = DELTA_MM) -> np.ndarray:
+    """BOP19 visibility of an object rendered alone: rendered > 0 and (scene depth missing or
+    rendered distance - scene distance <= delta)."""
+    obj = depth_obj_mm > 0
+    if depth_scene_mm is None:
+        return obj
+    d_obj = (np.asarray(depth_obj_mm, np.float64) * factor).astype(np.float32)
+    d_scene = (np.asarray(depth_scene_mm, np.float64) * factor).astype(np.float32)
+    return obj & ((d_obj - d_scene <= delta_mm) | (d_scene == 0))
+
+
+def front_most_masks(renderer, K, width: int, height: int, items, masks_visib) -> list[np.ndarray]:
+    """Extra, non-BOP visible masks: BOP's mask_visib AND front-most among the annotated objects."""
+    out = renderer.render(K, width, height, items, outputs=("instance",))
+    return [m & (out.instance == k + 1) for k, m in enumerate(masks_visib)]
 
 
 def _geometry_only(model: ObjectModel):
     """Untextured geometry in mm (no texture decoding when the mesh is not loaded yet)."""
-    import trimesh
     if model._mesh is None and model._loader is None and model.path is not None:
         from .io.mesh import load_geometry_mm
         return load_geometry_mm(model.path, model.unit_scale)
@@ -65,58 +91,70 @@ def ensure_meshes(renderer, models: dict[int, ObjectModel], obj_ids) -> None:
             renderer.add_mesh(key, _geometry_only(models[oid]))
 
 
-def _bbox_obj_large(renderer, K: np.ndarray, width: int, height: int, key, T: np.ndarray) -> list[int]:
-    """bbox of the full silhouette on a 3x canvas centred on the image (truncation included)."""
+def _large_silhouette(renderer, K: np.ndarray, width: int, height: int, key, T: np.ndarray) -> np.ndarray:
+    """Silhouette on a 3x canvas whose centre third is the image (BOP's enlarged canvas)."""
     K3 = np.array(K, dtype=np.float64)
     K3[0, 2] += width
     K3[1, 2] += height
     out = renderer.render(K3, 3 * width, 3 * height, [(key, T)], outputs=("depth",))
-    bb = bbox_xywh(out.depth_mm > 0)
-    if bb[0] >= 0:
-        bb[0] -= width
-        bb[1] -= height
-    return bb
+    return out.depth_mm > 0
+
+
+def gt_info_items(renderer, K: np.ndarray, width: int, height: int, items,
+                  depth_scene_mm: np.ndarray | None, delta_mm: float = DELTA_MM
+                  ) -> tuple[list[np.ndarray], list[np.ndarray], list[dict]]:
+    """Masks, visible masks and gt_info of ``items`` = [(renderer mesh key, T_m2c mm)] by BOP's rules.
+
+    ``depth_scene_mm``: the dataset's depth image in mm (0 = missing) or None (all missing).
+    """
+    if not items:
+        return [], [], []
+    out = renderer.render(K, width, height, items, outputs=("mask_all",))
+    factor = ray_factor(K, width, height)
+    valid = None if depth_scene_mm is None else np.asarray(depth_scene_mm) > 0
+    masks, masks_visib, infos = [], [], []
+    for k, (key, T) in enumerate(items):
+        d_obj = out.depth_all_mm[k]
+        m = d_obj > 0
+        m_vis = visible_mask(d_obj, depth_scene_mm, factor, delta_mm)
+        n_in = int(m.sum())
+        touches = n_in == 0 or m[0].any() or m[-1].any() or m[:, 0].any() or m[:, -1].any()
+        if touches:   # part of the silhouette may lie outside the image: count it on the 3x canvas
+            large = _large_silhouette(renderer, K, width, height, key, T)
+            n_all = int(large.sum())
+            bb_obj = bbox_xywh(large)
+            if bb_obj[0] >= 0:
+                bb_obj[0] -= width
+                bb_obj[1] -= height
+        else:         # the whole silhouette is inside the image
+            n_all, bb_obj = n_in, bbox_xywh(m)
+        n_vis = int(m_vis.sum())
+        if n_vis == 0:                        # BOP leaves both boxes undefined then
+            bb_obj = [-1, -1, -1, -1]
+        masks.append(m)
+        masks_visib.append(m_vis)
+        infos.append({"bbox_obj": bb_obj, "bbox_visib": bbox_xywh(m_vis), "px_count_all": n_all,
+                      "px_count_valid": n_in if valid is None else int((m & valid).sum()),
+                      "px_count_visib": n_vis, "visib_fract": float(n_vis / n_all) if n_all > 0 else 0.0})
+    return masks, masks_visib, infos
 
 
 def compute_gt_info(renderer, frame: Frame, models: dict[int, ObjectModel],
                     depth_mm_real: np.ndarray | None = None, delta_mm: float = DELTA_MM
                     ) -> tuple[list[np.ndarray], list[np.ndarray], list[dict]]:
-    """Masks, visible masks and BOP gt_info dicts for every instance of ``frame``.
+    """Masks, visible masks and BOP gt_info dicts for every instance of ``frame`` (BOP's rules).
 
     ``models[obj_id].mesh`` must be in the model frame of the instance poses (mm).
-    ``depth_mm_real``: the real depth image in mm (0 = invalid) or None.
+    ``depth_mm_real``: the frame's depth image in mm (0 = missing) or None.
     Returns (masks, masks_visib, gt_info) in instance order.
     """
     insts = frame.instances
     if not insts:
         return [], [], []
     ensure_meshes(renderer, models, [i.obj_id for i in insts])
-    W, H = frame.camera.width, frame.camera.height
-    K = frame.camera.K
     items = [(mesh_key(models[i.obj_id]), i.T_m2c) for i in insts]
-    out = renderer.render(K, W, H, items, outputs=("depth", "instance", "mask_all"))
-    valid = None if depth_mm_real is None else depth_mm_real > 0
-    masks, masks_visib, infos = [], [], []
-    for k in range(len(insts)):
-        m_all = out.masks_all[k]
-        front = out.instance == (k + 1)
-        m_vis = visible_mask(front, out.depth_mm, depth_mm_real, delta_mm)
-        n_all = int(m_all.sum())
-        n_valid = n_all if valid is None else int((m_all & valid).sum())
-        n_vis = int(m_vis.sum())
-        touches = n_all > 0 and (m_all[0].any() or m_all[-1].any() or m_all[:, 0].any() or m_all[:, -1].any())
-        if touches:
-            bb_obj = _bbox_obj_large(renderer, K, W, H, items[k][0], items[k][1])
-        else:
-            bb_obj = bbox_xywh(m_all)
-            if n_all == 0:   # possibly entirely outside the image
-                bb_obj = _bbox_obj_large(renderer, K, W, H, items[k][0], items[k][1])
-        masks.append(m_all)
-        masks_visib.append(m_vis)
-        infos.append({"bbox_obj": bb_obj, "bbox_visib": bbox_xywh(m_vis), "px_count_all": n_all,
-                      "px_count_valid": n_valid, "px_count_visib": n_vis,
-                      "visib_fract": float(n_vis / n_all) if n_all > 0 else 0.0})
-    return masks, masks_visib, infos
+    return gt_info_items(renderer, frame.camera.K, frame.camera.width, frame.camera.height, items,
+                         depth_mm_real, delta_mm)
 
 
 def mask_iou(a: np.ndarray, b: np.ndarray) -> float:

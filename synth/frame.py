@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import YcbvssError
+from ..gt_info import gt_info_items
 from .blender import frame_seed
 from .composite import CompositeObject, composite_frame, merge_depth
 from .frame_files import FrameFiles
@@ -21,13 +22,6 @@ from .noise import NoiseParams
 
 def marker_path(split_dir, scene_id: int, im_id: int) -> Path:
     return Path(split_dir) / f"{scene_id:06d}" / ".done" / f"{im_id:06d}.json"
-
-
-def _bbox_xywh(mask: np.ndarray) -> list[int]:
-    ys, xs = np.nonzero(mask)
-    if len(xs) == 0:
-        return [-1, -1, -1, -1]
-    return [int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1)]
 
 
 def validate_pose(T: np.ndarray, corners_mm: np.ndarray) -> str | None:
@@ -164,19 +158,17 @@ def process_frame(worker, config: dict, task: dict) -> dict:
         if d.max(initial=0) > 65535:
             raise YcbvssError(f"depth exceeds uint16 range with depth_scale {ds_out}", sdir / "depth", wh)
         files.png(sdir / "depth" / f"{iid:06d}.png", d.astype(np.uint16))
-        scene_gt, gt_info, objects = [], [], []
+        # masks and gt_info by BOP's rules against the depth image as written (see ycbvss.gt_info)
+        depth_written_mm = d.astype(np.float64) * ds_out
+        items = [(o["key"], o["T"]) for o in kept]
+        masks, masks_visib, gt_info = gt_info_items(fast, K, W, H, items, depth_written_mm)
+        scene_gt, objects = [], []
         for k, o in enumerate(kept):
-            full = o["mask_all"]
-            visib = index == k + 1
-            files.png(sdir / "mask" / f"{iid:06d}_{k:06d}.png", full.astype(np.uint8) * 255)
-            files.png(sdir / "mask_visib" / f"{iid:06d}_{k:06d}.png", visib.astype(np.uint8) * 255)
+            files.png(sdir / "mask" / f"{iid:06d}_{k:06d}.png", masks[k].astype(np.uint8) * 255)
+            files.png(sdir / "mask_visib" / f"{iid:06d}_{k:06d}.png", masks_visib[k].astype(np.uint8) * 255)
             T = o["T"]
             scene_gt.append({"cam_R_m2c": T[:3, :3].reshape(-1).tolist(), "cam_t_m2c": T[:3, 3].tolist(),
                              "obj_id": int(o["obj_id"])})
-            n_all, n_vis = int(full.sum()), int(visib.sum())
-            gt_info.append({"bbox_obj": _bbox_xywh(full), "bbox_visib": _bbox_xywh(visib),
-                            "px_count_all": n_all, "px_count_valid": int((full & (out_depth > 0)).sum()),
-                            "px_count_visib": n_vis, "visib_fract": float(n_vis / n_all) if n_all else 0.0})
             objects.append({"obj_id": int(o["obj_id"]), "src_gt_idx": o.get("gt_idx"), **cstats[k]})
         marker.update(scene_gt=scene_gt, gt_info=gt_info, objects=objects,
                       scene_camera={"cam_K": K.reshape(-1).tolist(), "depth_scale": ds_out})
