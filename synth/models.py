@@ -50,3 +50,18 @@ def write_dilated_models(models_dir: str | Path, models: dict, centres: dict, sc
         meshes[oid] = centred_mesh(m, centres[oid], scales[oid])
         syms[oid] = transform_symmetries(m.symmetries_discrete, m.symmetries_continuous, centres[oid], scales[oid])
     return write_models(models_dir, meshes, symmetries=syms)
+
+
+def write_original_models(models_dir: str | Path, models: dict, centres: dict) -> dict:
+    """models_original/: the input models recentred (same frame as models/), NOT enlarged, geometry only."""
+    import trimesh
+    from ..io.bop import write_models
+    meshes, syms = {}, {}
+    for oid in sorted(centres):
+        m = models[oid]
+        from ..io.mesh import load_geometry_mm
+        g = load_geometry_mm(m.path, m.unit_scale) if m.path is not None else m.mesh
+        meshes[oid] = trimesh.Trimesh(np.asarray(g.vertices, np.float64) - np.asarray(centres[oid], np.float64),
+                                      np.asarray(g.faces), process=False)
+        syms[oid] = transform_symmetries(m.symmetries_discrete, m.symmetries_continuous, centres[oid], 1.0)
+    return write_models(models_dir, meshes, symmetries=syms)

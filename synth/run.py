@@ -23,8 +23,9 @@ from .coverage import SCALE_GRID, TARGET, choose_scale
 from .frame import marker_path
 from .inputs import open_input
 from .frame_files import clean_temporaries
-from .models import bbox_center_mm, recentre_pose, write_dilated_models
+from .models import bbox_center_mm, recentre_pose, write_dilated_models, write_original_models
 from .noise import NoiseParams
+from ..io.bop_dataset import targets_filename
 
 STATE_DIR = ".synth_state"
 
@@ -260,6 +261,38 @@ def build_report(inputs: dict, opts: SynthOptions, models_state: dict, acc: Repo
     }
 
 
+def dataset_info_md(split: str, scales: dict, models: dict) -> str:
+    """dataset_info.md of a YCBV-SS root: which models are dilated and which the GT refers to."""
+    from .. import __version__
+    rows = "\n".join(f"| {o} | {models[o].name} | {scales.get(o, 1.0):g} | "
+                      f"{'yes' if scales.get(o, 1.0) != 1.0 else 'no (not rendered)' if o not in scales else 'no'} |"
+                      for o in sorted(models))
+    return (f"# YCBV-SS (semi-synthetic YCB-Video), written by ycbvss {__version__} (`ycbvss synth`)\n\n"
+            f"Split `{split}`, targets `{targets_filename(split)}`. Real YCB-V frames with every annotated object "
+            "re-rendered by Blender at the GT poses of `scene_gt.json` (see `synth_report.json`).\n\n"
+            "**The GT refers to the DILATED models in `models/`** (what was rendered): each rendered model is the "
+            "input model recentred on its bounding-box centre and enlarged about it by the scale below so that it "
+            "covers the original object. `models_original/` holds the same models unscaled in the same frame; "
+            "evaluate against them with `ycbvss eval --models-subdir models_original` (bop_toolkit: point "
+            "`models`/`models_eval` to copies of them). `models_eval/` is `models/` uniformly remeshed.\n\n"
+            "| obj_id | name | scale | dilated |\n|---|---|---|---|\n" + rows + "\n\n"
+            "scene_gt_info.json, mask/, mask_visib/: bop_toolkit calc_gt_info rules (delta 15 mm against the "
+            "written synthetic depth, missing depth visible, 3x canvas, bbox w = x_max - x_min).\n")
+
+
+def write_dataset_files(out: Path, split: str, scales: dict, models: dict) -> None:
+    """Camera files, the split's targets, models_eval/ and dataset_info.md (see ycbvss.io.bop_dataset)."""
+    from ..io.atomic import write_text_atomic
+    from ..io.bop_dataset import write_camera_files, write_models_eval, write_targets
+    write_camera_files(out)
+    write_targets(out, split)
+    write_models_eval(out, show_progress=False)
+    write_text_atomic(out / "dataset_info.md", dataset_info_md(split, scales, models))
+    if len(models) < 21:
+        warnings.warn(f"the input has models of {len(models)} objects only (YCB-V has 21): the output holds "
+                      "those", stacklevel=2)
+
+
 # ------------------------------------------------------------------------------ main entry
 def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int] | None = None,
               poses: str | Path | None = None, opts: SynthOptions | None = None, executor=None) -> dict:
@@ -357,7 +390,11 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
                          {str(k): np.asarray(c).tolist() for k, c in sorted(all_centres.items())}])
     mstate = state_dir / f"models_{mkey}.done"
     if not mstate.is_file() or not (models_dir / "models_info.json").is_file():
-        write_dilated_models(models_dir, ds.models, all_centres, all_scales)
+        # every model of the input: the rendered objects enlarged, the others at scale 1 (never rendered)
+        others = {o: bbox_center_mm(ds.models[o].vertices_mm) for o in sorted(set(ds.models) - set(all_scales))}
+        write_dilated_models(models_dir, ds.models, {**others, **all_centres},
+                             {**{o: 1.0 for o in others}, **all_scales})
+        write_original_models(out / "models_original", ds.models, {**others, **all_centres})
         write_json_atomic(mstate, {"scales": {str(k): v for k, v in sorted(all_scales.items())}})
     write_json_atomic(run_file, {"settings": settings,
                                  "scales": {str(k): v for k, v in sorted(all_scales.items())},
@@ -407,6 +444,7 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
                 acc.add(m)
     report = build_report(inputs, opts, models_state, acc, {o: ds.models[o].name for o in obj_ids})
     write_json_atomic(out / "synth_report.json", report)
+    write_dataset_files(out, split, all_scales, ds.models)
     if timing["n"]:
         n = timing["n"]
         print(f"ycbvss synth: {n} frames synthesised; per frame (worker time): render "

@@ -182,4 +182,5 @@ def test_synth_gt_info_is_bop(converted, tmp_path):
     run_synth(converted, "train_real", out, scenes=[1],
               opts=SynthOptions(samples=2, seed=1, workers=1, frames=[1]))
     assert_bop_conformant(out, "train_real", n_min=4)
-    assert_dataset_files(out, "train_real", n_models=21)
+    assert_dataset_files(out, "train_real", n_models=4)    # the input (convert with obj_ids=[]) has 4 models
+    assert len(json.loads((out / "models_original" / "models_info.json").read_text())) == 4
