@@ -19,8 +19,10 @@ def register(subparsers) -> None:
     p.add_argument("--split", required=True, help="split folder name, e.g. test or test_ycbvss")
     p.add_argument("--results", required=True, help="BOP19 results CSV")
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--symmetric", type=int, nargs="*", default=[13], metavar="OBJ_ID",
-                   help="obj_ids scored with ADD-S (default: 13 = 024_bowl; give no id for none)")
+    p.add_argument("--symmetric", nargs="*", default=None, metavar="SET|OBJ_ID",
+                   help="objects scored with ADD-S: paper (default: 13 = 024_bowl, Li et al.), bop (BOP ycbv: "
+                        "1,13,14,16,18,19,20,21), posecnn (PoseCNN/PVN3D: 13,16,19,20,21), none, or obj_ids "
+                        "(e.g. 13 16); the set is named in every table header")
     p.add_argument("--use-symmetries", action="store_true",
                    help="compare with the GT pose modulo the models_info symmetries (closest equivalent)")
     p.add_argument("--adds-for", choices=("all", "symmetric"), default="all",
@@ -47,8 +49,9 @@ def run(args: argparse.Namespace) -> int:
     root = Path(args.dataset)
     if not root.is_dir():
         raise YcbvssError("dataset root not found", root)
-    sym = tuple(args.symmetric or ())
-    options = EvalOptions(symmetric_obj_ids=sym, use_symmetries=args.use_symmetries,
+    from .symmetric_sets import parse_symmetric
+    sym, sym_label = parse_symmetric(args.symmetric)
+    options = EvalOptions(symmetric_obj_ids=sym, symmetric_set=sym_label, use_symmetries=args.use_symmetries,
                           adds_for=args.adds_for, add_bound_mm=args.add_bound_mm,
                           prj_bound_px=args.prj_bound_px, sr_t_mm=args.sr_t_mm, sr_r_deg=args.sr_r_deg)
     models = load_models(root / args.models_subdir, symmetric_obj_ids=sym)

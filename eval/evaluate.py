@@ -31,6 +31,7 @@ class EvalOptions:
     ``nn_k``: candidates per model point of the exact ADD-S fast path (0 = KD-tree only)."""
 
     symmetric_obj_ids: tuple[int, ...] | None = (13,)
+    symmetric_set: str = "paper"     # name of the ADD-S set, shown in table headers (see symmetric_sets)
     use_symmetries: bool = False
     adds_for: str = "all"
     add_bound_mm: float = ADD_BOUND_MM

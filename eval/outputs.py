@@ -66,12 +66,20 @@ def result_error_table(result: EvalResult, all_from: str = "instances", extra_ro
     else:
         all_row = result.summary["all_instances"]
     return error_table(result.per_object, result.names, result.textureless, all_row, extra_rows,
-                       caption=caption)
+                       caption=caption or _sym_caption(result))
+
+
+def _sym_caption(result: EvalResult) -> str:
+    from .symmetric_sets import header_label
+    o = result.summary.get("options", {})
+    return header_label(o.get("symmetric_set", "paper"), o.get("symmetric_obj_ids", ()))
 
 
 def result_score_table(result: EvalResult, caption: str = "") -> Table:
-    return score_table(result.per_object, result.summary, result.names, result.textureless,
-                       caption=caption)
+    t = score_table(result.per_object, result.summary, result.names, result.textureless,
+                    caption=caption or _sym_caption(result))
+    t.columns[0] = f"ADD(-S) AUC [{result.summary.get('options', {}).get('symmetric_set', 'paper')}]"
+    return t
 
 
 def write_outputs(result: EvalResult, out_dir: str | Path, curves: bool = True) -> dict[str, Path]:
