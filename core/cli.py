@@ -21,6 +21,7 @@ _REGISTRARS = [
     ("ycbvss.refine.cli", "register"),       # refine
     ("ycbvss.eval.cli", "register"),         # eval
     ("ycbvss.pipeline.benchmark_cli", "register"),   # benchmark make|run|score
+    ("ycbvss.export_cli", "register"),       # export, gt
 ]
 
 
