@@ -25,9 +25,12 @@ class ModelPoints:
 
     ``k``: candidates per point for the scipy fast path (0 disables it). ``workers``: threads for
     KD-tree queries (-1 = all cores). ``backend``: "numba" (compiled kernel, all cores),
-    "scipy" (BLAS candidate path + cKDTree) or "auto" (numba when it imports)."""
+    "scipy" (BLAS candidate path + cKDTree) or "auto" (numba when it imports). ``grid``: with
+    numba, answer uncertified queries from an exact voxel grid (:mod:`ycbvss.eval.nn_grid`) when
+    a call has many of them (large, tracker-level errors); same numbers."""
 
-    def __init__(self, points: np.ndarray, k: int = 16, workers: int = -1, backend: str = "auto"):
+    def __init__(self, points: np.ndarray, k: int = 16, workers: int = -1, backend: str = "auto",
+                 grid: bool = True):
         pts = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         if len(pts) == 0:
             raise ValueError("model has no points")
@@ -38,6 +41,8 @@ class ModelPoints:
         self._tree = None
         self._fast = None
         self._nb = None
+        self._grid = None
+        self.grid = bool(grid)
         if backend not in ("auto", "numba", "scipy"):
             raise ValueError(f"unknown backend {backend!r}")
         if backend != "scipy" and compiled_kernel() is not None:
@@ -115,15 +120,53 @@ class ModelPoints:
             self._nb = (tp, np.ascontiguousarray(tp.T), cand, rho, lo, hi, child, span, depth)
         return self._nb
 
+    def _grid_data(self):
+        if self._grid is None:
+            from .nn_grid import build_grid      # lazy: compiled (numba) module
+            self._grid = build_grid(self._numba_data()[0])
+        return self._grid
+
+    def _add_adds_grid(self, A, b):
+        from .nn_grid import add_adds_grid_kernel      # lazy: compiled (numba) module
+        tp, tpT, cand, rho, lo, hi, child, span, depth = self._numba_data()
+        add, adds, n_grid, n_tree = add_adds_grid_kernel(tp, A, b, True, cand, rho, tpT, lo, hi, child, span,
+                                                         depth, *self._grid_data())
+        ng, nt = int(n_grid.sum()), int(n_tree.sum())
+        self.stats["grid"] = self.stats.get("grid", 0) + ng
+        self.stats["tree"] += nt
+        self.stats["certified"] += len(A) * self.n - nt - ng
+        return add, adds
+
     def _add_adds_numba(self, A, b, with_adds):
         tp, tpT, cand, rho, lo, hi, child, span, depth = self._numba_data()
         if len(A) == 0:
+            return np.empty(0), (np.empty(0) if with_adds else None)
+        if with_adds and self.grid:
+            if self._grid is not None:
+                return self._add_adds_grid(A, b)
+            if len(A) * self.n >= GRID_MIN_QUERIES:
+                # probe: build the grid only when many queries would go to the KD-tree (large errors)
+                m = min(len(A), GRID_PROBE_POSES)
+                a0, s0 = self._add_adds_numba_tree(A[:m], b[:m], True)
+                frac = self._last_tree / float(m * self.n)
+                if frac * (len(A) - m) * self.n >= GRID_MIN_QUERIES:
+                    a1, s1 = self._add_adds_grid(A[m:], b[m:])
+                else:
+                    a1, s1 = self._add_adds_numba_tree(A[m:], b[m:], True)
+                return np.concatenate([a0, a1]), np.concatenate([s0, s1])
+        return self._add_adds_numba_tree(A, b, with_adds)
+
+    def _add_adds_numba_tree(self, A, b, with_adds):
+        tp, tpT, cand, rho, lo, hi, child, span, depth = self._numba_data()
+        if len(A) == 0:
+            self._last_tree = 0
             return np.empty(0), (np.empty(0) if with_adds else None)
         add, adds, n_tree = compiled_kernel()(tp, A, b, bool(with_adds), cand, rho, tpT, lo, hi, child, span,
                                               depth)
         if not with_adds:
             return add, None
         nt = int(n_tree.sum())
+        self._last_tree = nt
         self.stats["tree"] += nt
         self.stats["certified"] += len(A) * self.n - nt
         return add, adds
@@ -206,5 +249,7 @@ def compiled_kernel():
 
 
 _KERNEL = None
+GRID_MIN_QUERIES = 4_000_000   # uncertified ADD-S queries in one call from which the exact voxel grid pays off
+GRID_PROBE_POSES = 32          # poses run through the KD-tree kernel first to measure the uncertified fraction
 NB_LEAFSIZE = 64         # leaf size of the numba KD-tree: measured 8..128 on 5000-point models, 32-64 best
 NB_CANDIDATES = 8        # certified candidates per point (4..16 measured; 8 certifies >99.9 % at 0.5 mm errors)

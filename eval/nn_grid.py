@@ -1,0 +1,237 @@
+"""An exact nearest-neighbour voxel grid for off-surface ADD-S queries (tracker-level errors).
+
+The model's bounding box, grown by a shell margin, is cut into cubic cells of edge ``s``
+(half-diagonal ``h = s sqrt(3) / 2``). For a cell with centre ``c`` whose nearest model point is at
+distance ``d_c``, the cell's candidate list holds every model point ``p`` with
+``|p - c| <= d_c + 2 h`` (plus a rounding margin), sorted by ``|p - c|``.
+
+Completeness: for a query ``y`` in the cell (``|y - c| <= h``) with nearest model point ``p*``,
+``|p* - y| <= |q - y| <= d_c + h`` for ``q`` the nearest point of ``c``, hence
+``|p* - c| <= |p* - y| + |y - c| <= d_c + 2 h``: ``p*`` is in the list. Scan order: a list
+entry with ``|p - c| - |y - c| > best`` cannot be nearer than the best distance found so far
+(triangle inequality), and all later entries are farther from ``c`` -- the scan stops there.
+So the answer is exact (equal to a brute-force search up to rounding of the final distance).
+
+Cells farther than the shell from the surface, and cells whose list would exceed ``max_list``
+points, get no list: queries there fall back to the KD-tree (:mod:`ycbvss.eval.nn_kernel`).
+Compiled with numba (imported lazily by :class:`ycbvss.eval.model_points.ModelPoints`, which uses
+the grid for large ADD-S batches only: its build costs about 1.5 s for an 8k-vertex model).
+
+Measured (8k-vertex YCB meshes, 400 poses 3 deg / 10, 10, 20 mm off, busy 2-core machine): the
+query part 1.8-2.5x faster than the KD-tree kernel, 97-100 % of the uncertified queries answered
+by the grid, identical ADD-S (max difference 7e-15 mm).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from .nn_kernel import _nn2
+
+
+@njit(cache=True, parallel=True)
+def _count(tp, origin, s, nx, ny, nz, dc, shell, h, eps, bstart, border, max_list, counts):
+    ncell = nx * ny * nz
+    for c in prange(ncell):
+        counts[c] = 0
+        if dc[c] > shell:
+            continue
+        cz = c % nz
+        cy = (c // nz) % ny
+        cx = c // (ny * nz)
+        x0 = origin[0] + (cx + 0.5) * s
+        x1 = origin[1] + (cy + 0.5) * s
+        x2 = origin[2] + (cz + 0.5) * s
+        r = dc[c] + 2.0 * h + eps
+        r2 = r * r
+        k = int(math.ceil(r / s))
+        n = 0
+        for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
+            for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
+                for iz in range(max(0, cz - k), min(nz, cz + k + 1)):
+                    b = (ix * ny + iy) * nz + iz
+                    for q in range(bstart[b], bstart[b + 1]):
+                        p = border[q]
+                        e0 = tp[p, 0] - x0
+                        e1 = tp[p, 1] - x1
+                        e2 = tp[p, 2] - x2
+                        if e0 * e0 + e1 * e1 + e2 * e2 <= r2:
+                            n += 1
+        counts[c] = n if n <= max_list else 0
+
+
+@njit(cache=True, parallel=True)
+def _fill(tp, origin, s, nx, ny, nz, dc, h, eps, bstart, border, offsets, gidx, gdist):
+    ncell = nx * ny * nz
+    for c in prange(ncell):
+        a = offsets[c]
+        e = offsets[c + 1]
+        if e == a:
+            continue
+        cz = c % nz
+        cy = (c // nz) % ny
+        cx = c // (ny * nz)
+        x0 = origin[0] + (cx + 0.5) * s
+        x1 = origin[1] + (cy + 0.5) * s
+        x2 = origin[2] + (cz + 0.5) * s
+        r = dc[c] + 2.0 * h + eps
+        r2 = r * r
+        k = int(math.ceil(r / s))
+        n = a
+        for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
+            for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
+                for iz in range(max(0, cz - k), min(nz, cz + k + 1)):
+                    b = (ix * ny + iy) * nz + iz
+                    for q in range(bstart[b], bstart[b + 1]):
+                        p = border[q]
+                        e0 = tp[p, 0] - x0
+                        e1 = tp[p, 1] - x1
+                        e2 = tp[p, 2] - x2
+                        d2 = e0 * e0 + e1 * e1 + e2 * e2
+                        if d2 <= r2:
+                            gidx[n] = p
+                            gdist[n] = math.sqrt(d2)
+                            n += 1
+        order = np.argsort(gdist[a:e])
+        gi = gidx[a:e][order].copy()
+        gd = gdist[a:e][order].copy()
+        gidx[a:e] = gi
+        gdist[a:e] = gd
+
+
+def build_grid(tp: np.ndarray, max_cells: int = 1 << 15, shell_frac: float = 0.3, max_list: int = 4096):
+    """Grid arrays for :func:`grid_nn2` (see module doc). ``tp`` (P, 3) model points (any order;
+    list entries index into it). Shell = ``shell_frac`` x the bounding-box diagonal."""
+    from scipy.spatial import cKDTree
+    tp = np.ascontiguousarray(tp, dtype=np.float64)
+    lo, hi = tp.min(axis=0), tp.max(axis=0)
+    diag = float(np.linalg.norm(hi - lo))
+    shell = max(1.0, shell_frac * diag)
+    ext = hi - lo + 2.0 * shell
+    s = max(float(np.cbrt(np.prod(ext) / max_cells)), 1e-3 * diag, 1e-6)
+    dims = np.maximum(1, np.ceil(ext / s).astype(np.int64))
+    origin = lo - shell
+    nx, ny, nz = (int(d) for d in dims)
+    g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
+    centres = origin + (g + 0.5) * s
+    dc = cKDTree(tp).query(centres, k=1)[0]
+    h = s * math.sqrt(3.0) / 2.0
+    eps = 1e-7 * s + 1e-9 * diag
+    ip = np.clip(np.floor((tp - origin) / s).astype(np.int64), 0, dims - 1)
+    pc = (ip[:, 0] * ny + ip[:, 1]) * nz + ip[:, 2]
+    border = np.argsort(pc, kind="stable").astype(np.int64)
+    bstart = np.zeros(nx * ny * nz + 1, np.int64)
+    np.add.at(bstart, pc + 1, 1)
+    bstart = np.cumsum(bstart)
+    counts = np.empty(nx * ny * nz, np.int64)
+    _count(tp, origin, s, nx, ny, nz, dc, shell, h, eps, bstart, border, max_list, counts)
+    offsets = np.zeros(nx * ny * nz + 1, np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    gidx = np.empty(int(offsets[-1]), np.int64)
+    gdist = np.empty(int(offsets[-1]), np.float64)
+    _fill(tp, origin, s, nx, ny, nz, dc, h, eps, bstart, border, offsets, gidx, gdist)
+    geo = np.array([origin[0], origin[1], origin[2], s, 1.0 / s], dtype=np.float64)
+    return geo, np.array([nx, ny, nz], np.int64), offsets, gidx, gdist
+
+
+@njit(cache=True, inline="always")
+def grid_nn2(y0, y1, y2, best, tp, geo, dims, offsets, gidx, gdist):
+    """Exact squared nearest distance of ``y`` if its cell has a list (else -1.0: use the tree);
+    ``best`` = an upper bound already known (squared)."""
+    fx = (y0 - geo[0]) * geo[4]
+    fy = (y1 - geo[1]) * geo[4]
+    fz = (y2 - geo[2]) * geo[4]
+    if not (fx >= 0.0 and fy >= 0.0 and fz >= 0.0):
+        return -1.0
+    cx = int(fx)
+    cy = int(fy)
+    cz = int(fz)
+    if cx >= dims[0] or cy >= dims[1] or cz >= dims[2]:
+        return -1.0
+    c = (cx * dims[1] + cy) * dims[2] + cz
+    a = offsets[c]
+    e = offsets[c + 1]
+    if a == e:
+        return -1.0
+    s = geo[3]
+    d0 = y0 - (geo[0] + (cx + 0.5) * s)
+    d1 = y1 - (geo[1] + (cy + 0.5) * s)
+    d2 = y2 - (geo[2] + (cz + 0.5) * s)
+    dy = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    bd = math.sqrt(best)
+    for k in range(a, e):
+        if gdist[k] - dy > bd:
+            break
+        p = gidx[k]
+        e0 = y0 - tp[p, 0]
+        e1 = y1 - tp[p, 1]
+        e2 = y2 - tp[p, 2]
+        d = e0 * e0 + e1 * e1 + e2 * e2
+        if d < best:
+            best = d
+            bd = math.sqrt(best)
+    return best
+
+
+@njit(cache=True, parallel=True, fastmath=False)
+def add_adds_grid_kernel(pts, A, b, with_adds, cand, rho, tp, lo, hi, child, span, depth, geo, dims, offsets,
+                         gidx, gdist):
+    """:func:`ycbvss.eval.nn_kernel.add_adds_kernel` with the grid between the certificate and
+    the KD-tree: an uncertified point is answered from its cell's list when it has one.
+    Returns (add, adds, n_grid, n_tree)."""
+    n = A.shape[0]
+    P = pts.shape[0]
+    kc = cand.shape[1]
+    add = np.empty(n)
+    adds = np.empty(n)
+    n_tree = np.zeros(n, np.int64)
+    n_grid = np.zeros(n, np.int64)
+    for j in prange(n):
+        stack_n = np.empty(2 * depth + 4, np.int64)
+        stack_d = np.empty(2 * depth + 4)
+        a00, a01, a02 = A[j, 0, 0], A[j, 0, 1], A[j, 0, 2]
+        a10, a11, a12 = A[j, 1, 0], A[j, 1, 1], A[j, 1, 2]
+        a20, a21, a22 = A[j, 2, 0], A[j, 2, 1], A[j, 2, 2]
+        b0, b1, b2 = b[j, 0], b[j, 1], b[j, 2]
+        sa = 0.0
+        ss = 0.0
+        nt = 0
+        ng = 0
+        for i in range(P):
+            x0, x1, x2 = pts[i, 0], pts[i, 1], pts[i, 2]
+            y0 = a00 * x0 + a01 * x1 + a02 * x2 + b0
+            y1 = a10 * x0 + a11 * x1 + a12 * x2 + b1
+            y2 = a20 * x0 + a21 * x1 + a22 * x2 + b2
+            e0 = y0 - x0
+            e1 = y1 - x1
+            e2 = y2 - x2
+            d2 = e0 * e0 + e1 * e1 + e2 * e2
+            delta = np.sqrt(d2)
+            sa += delta
+            if with_adds:
+                best = d2
+                for q in range(kc):
+                    c = cand[i, q]
+                    e0 = y0 - pts[c, 0]
+                    e1 = y1 - pts[c, 1]
+                    e2 = y2 - pts[c, 2]
+                    d = e0 * e0 + e1 * e1 + e2 * e2
+                    if d < best:
+                        best = d
+                r = rho[i] - delta
+                if r <= 0.0 or best > r * r * (1.0 - 1e-12):
+                    g = grid_nn2(y0, y1, y2, best, pts, geo, dims, offsets, gidx, gdist)
+                    if g >= 0.0:
+                        best = g
+                        ng += 1
+                    else:
+                        best = _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d)
+                        nt += 1
+                ss += np.sqrt(best)
+        add[j] = sa / P
+        adds[j] = ss / P
+        n_tree[j] = nt
+        n_grid[j] = ng
+    return add, adds, n_grid, n_tree
