@@ -2,7 +2,9 @@
 
 The definitions are those of bop_toolkit's ``scripts/calc_gt_info.py`` and
 ``scripts/calc_gt_masks.py`` (BOP19 visibility), re-implemented here. For instance k of a frame,
-each object is rendered ALONE (no mutual occlusion in the renderer):
+each object is rendered ALONE (no mutual occlusion in the renderer) on a 3x canvas centred on the image,
+whose centre third gives the image-size masks and depth (one render per object, so the counts and the
+PNGs always agree):
 
 - ``mask`` (mask/): the object's silhouette in the image (rendered depth > 0);
 - ``mask_visib`` (mask_visib/): pixels of ``mask`` where the scene depth is missing (0) or the
@@ -91,13 +93,12 @@ def ensure_meshes(renderer, models: dict[int, ObjectModel], obj_ids) -> None:
             renderer.add_mesh(key, _geometry_only(models[oid]))
 
 
-def _large_silhouette(renderer, K: np.ndarray, width: int, height: int, key, T: np.ndarray) -> np.ndarray:
-    """Silhouette on a 3x canvas whose centre third is the image (BOP's enlarged canvas)."""
+def _large_depth(renderer, K: np.ndarray, width: int, height: int, key, T: np.ndarray) -> np.ndarray:
+    """Depth (mm) of one object on a 3x canvas whose centre third is the image (BOP's enlarged canvas)."""
     K3 = np.array(K, dtype=np.float64)
     K3[0, 2] += width
     K3[1, 2] += height
-    out = renderer.render(K3, 3 * width, 3 * height, [(key, T)], outputs=("depth",))
-    return out.depth_mm > 0
+    return renderer.render(K3, 3 * width, 3 * height, [(key, T)], outputs=("depth",)).depth_mm
 
 
 def gt_info_items(renderer, K: np.ndarray, width: int, height: int, items,
@@ -109,32 +110,26 @@ def gt_info_items(renderer, K: np.ndarray, width: int, height: int, items,
     """
     if not items:
         return [], [], []
-    out = renderer.render(K, width, height, items, outputs=("mask_all",))
     factor = ray_factor(K, width, height)
     valid = None if depth_scene_mm is None else np.asarray(depth_scene_mm) > 0
     masks, masks_visib, infos = [], [], []
-    for k, (key, T) in enumerate(items):
-        d_obj = out.depth_all_mm[k]
+    for key, T in items:
+        # one render per object on the 3x canvas; the image is its centre third (as calc_gt_info does)
+        d_large = _large_depth(renderer, K, width, height, key, T)
+        d_obj = d_large[height:2 * height, width:2 * width]
+        large = d_large > 0
         m = d_obj > 0
         m_vis = visible_mask(d_obj, depth_scene_mm, factor, delta_mm)
-        n_in = int(m.sum())
-        touches = n_in == 0 or m[0].any() or m[-1].any() or m[:, 0].any() or m[:, -1].any()
-        if touches:   # part of the silhouette may lie outside the image: count it on the 3x canvas
-            large = _large_silhouette(renderer, K, width, height, key, T)
-            n_all = int(large.sum())
+        n_all, n_vis = int(large.sum()), int(m_vis.sum())
+        bb_obj = [-1, -1, -1, -1]
+        if n_vis > 0:                         # BOP leaves both boxes undefined when nothing is visible
             bb_obj = bbox_xywh(large)
-            if bb_obj[0] >= 0:
-                bb_obj[0] -= width
-                bb_obj[1] -= height
-        else:         # the whole silhouette is inside the image
-            n_all, bb_obj = n_in, bbox_xywh(m)
-        n_vis = int(m_vis.sum())
-        if n_vis == 0:                        # BOP leaves both boxes undefined then
-            bb_obj = [-1, -1, -1, -1]
+            bb_obj[0] -= width
+            bb_obj[1] -= height
         masks.append(m)
         masks_visib.append(m_vis)
         infos.append({"bbox_obj": bb_obj, "bbox_visib": bbox_xywh(m_vis), "px_count_all": n_all,
-                      "px_count_valid": n_in if valid is None else int((m & valid).sum()),
+                      "px_count_valid": int(m.sum()) if valid is None else int((m & valid).sum()),
                       "px_count_visib": n_vis, "visib_fract": float(n_vis / n_all) if n_all > 0 else 0.0})
     return masks, masks_visib, infos
 

@@ -184,3 +184,65 @@ def test_synth_gt_info_is_bop(converted, tmp_path):
     assert_bop_conformant(out, "train_real", n_min=4)
     assert_dataset_files(out, "train_real", n_models=4)    # the input (convert with obj_ids=[]) has 4 models
     assert len(json.loads((out / "models_original" / "models_info.json").read_text())) == 4
+
+
+def _fake_refine_output(src: Path, split: str, sid: int, out: Path, shift_mm: float) -> dict:
+    """A `ycbvss refine --out` folder in refine's layout: every pose shifted by ``shift_mm`` in x, the
+    camera of image 1 solved (moved 2 mm), statuses; returns the shifted poses {(im, obj): t}."""
+    from ycbvss.io.atomic import write_json_atomic
+    sdir = src / split / f"{sid:06d}"
+    gt = json.loads((sdir / "scene_gt.json").read_text())
+    cam = json.loads((sdir / "scene_camera.json").read_text())
+    new_gt, poses, status = {}, {}, []
+    for im, insts in gt.items():
+        new_gt[im] = []
+        for e in sorted(insts, key=lambda e: e["obj_id"]):
+            t = np.asarray(e["cam_t_m2c"]) + [shift_mm, 0, 0]
+            new_gt[im].append({**e, "cam_t_m2c": t.tolist()})
+            poses[(int(im), e["obj_id"])] = t
+            status.append({"im_id": int(im), "obj_id": e["obj_id"], "status": "converged", "confidence": 0.9,
+                           "reason": ""})
+    new_cam = {im: dict(c) for im, c in cam.items()}
+    new_cam["1"]["cam_t_w2c"] = (np.asarray(cam["1"]["cam_t_w2c"]) + [2.0, 0, 0]).tolist()
+    write_json_atomic(out / split / f"{sid:06d}" / "scene_gt.json", new_gt)
+    write_json_atomic(out / split / f"{sid:06d}" / "scene_camera.json", new_cam)
+    write_json_atomic(out / "refine" / f"{sid:06d}_status.json", {"poses": status})
+    return poses
+
+
+def test_export_and_gt_csv(converted, tmp_path):
+    """export: refined poses and camera in, gt_info/masks by BOP's rules, side file, linked images,
+    dataset files; `ycbvss gt` writes every GT pose; a missing refine folder is one error line, exit 2."""
+    import subprocess
+    import sys
+    from ycbvss.export import export_refined
+    from ycbvss.io.results import read_bop19_csv
+    ref = tmp_path / "refine_out"
+    poses = _fake_refine_output(converted, "train_real", 1, ref, shift_mm=3.0)
+    out = tmp_path / "exported"
+    r = export_refined(converted, "train_real", ref, out, show_progress=False)
+    assert r["refined"] == len(poses) == 20 and r["kept"] == 0 and r["cams_refined"] == 5
+    gt = json.loads((out / "train_real/000001/scene_gt.json").read_text())
+    worst = max(abs(np.asarray(e["cam_t_m2c"]) - poses[(int(im), e["obj_id"])]).max()
+                for im, insts in gt.items() for e in insts)
+    assert worst < 1e-9
+    cam = json.loads((out / "train_real/000001/scene_camera.json").read_text())
+    src_cam = json.loads((converted / "train_real/000001/scene_camera.json").read_text())
+    assert abs(cam["1"]["cam_t_w2c"][0] - src_cam["1"]["cam_t_w2c"][0] - 2.0) < 1e-9
+    side = json.loads((out / "train_real/000001/scene_gt_refine.json").read_text())
+    assert all(n["refined"] and n["status"] == "converged" for v in side.values() for n in v)
+    rgb = out / "train_real/000001/rgb/000001.png"
+    assert rgb.is_symlink() and rgb.resolve() == (converted / "train_real/000001/rgb/000001.png").resolve()
+    assert_bop_conformant(out, "train_real", n_min=20)
+    assert_dataset_files(out, "train_real", n_models=4)
+    # ycbvss gt
+    csv = tmp_path / "gt.csv"
+    p = subprocess.run([sys.executable, "-m", "ycbvss.cli", "gt", "--dataset", str(out), "--split", "train_real",
+                        "--out", str(csv)], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    ests = read_bop19_csv(csv)
+    assert len(ests) == 20 and max(abs(e.T_m2c[:3, 3] - poses[(e.im_id, e.obj_id)]).max() for e in ests) < 1e-5
+    p = subprocess.run([sys.executable, "-m", "ycbvss.cli", "export", "--dataset", str(converted), "--split",
+                        "train_real", "--refined", str(tmp_path / "nope"), "--out", str(tmp_path / "x")],
+                       capture_output=True, text=True)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "nope" in p.stderr, p.stderr
