@@ -45,7 +45,8 @@ class BlenderSession:
         bpy.ops.wm.read_factory_settings(use_empty=True)
         self.bpy = bpy
         self.scene = bpy.context.scene
-        self._tmpdir = Path(tempfile.mkdtemp(prefix="ycbvss-blender-"))
+        # inside the scratch folder of the parent's BlenderWorker (removed when it closes the worker)
+        self._tmpdir = Path(tempfile.mkdtemp(prefix="ycbvss-blender-", dir=os.environ.get("YCBVSS_BLENDER_TMP")))
         self._mesh_specs: dict[str, tuple] = {}
         self._mesh_data: dict[str, object] = {}
         self._corners_mm: dict[str, np.ndarray] = {}

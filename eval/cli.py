@@ -16,7 +16,7 @@ def register(subparsers) -> None:
                     "AUC of ADD(-S) (bound 100 mm) and PRJ (10 px), ADD-PRJ-AUC, SR at 5 cm / 5 deg; overall "
                     "= mean over objects. GT instances without an estimate count as failed.")
     p.add_argument("--dataset", required=True, help="BOP dataset root (contains models/ and the split folder)")
-    p.add_argument("--split", required=True, help="split folder name, e.g. test or test_ycbvss")
+    p.add_argument("--split", default=None, help="split folder name, e.g. test (default: the dataset's only split)")
     p.add_argument("--results", required=True, help="BOP19 results CSV")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--symmetric", nargs="*", default=None, metavar="SET|OBJ_ID",
@@ -28,7 +28,7 @@ def register(subparsers) -> None:
     p.add_argument("--adds-for", choices=("all", "symmetric"), default="all",
                    help="compute the ADD-S column for all objects (default) or only the symmetric ones")
     p.add_argument("--models-subdir", default="models", help="models folder under --dataset (default models)")
-    p.add_argument("--scenes", type=int, nargs="*", default=None, help="only these scene ids")
+    p.add_argument("--scenes", nargs="*", default=None, help="only these scene ids, e.g. 0,1 or 48-59")
     p.add_argument("--add-bound-mm", type=float, default=100.0, help="ADD(-S) AUC bound (default 100 mm)")
     p.add_argument("--prj-bound-px", type=float, default=10.0, help="PRJ AUC bound (default 10 px)")
     p.add_argument("--sr-t-mm", type=float, default=50.0, help="SR translation threshold (default 50 mm)")
@@ -46,9 +46,14 @@ def run(args: argparse.Namespace) -> int:
     from .evaluate import EstArrays, EvalOptions, GtArrays, evaluate_arrays
     from .outputs import summary_text, write_outputs
 
+    from ..io.bop_dataset import resolve_split
+    from ..io.ycbv import parse_videos
     root = Path(args.dataset)
     if not root.is_dir():
         raise YcbvssError("dataset root not found", root)
+    args.split = resolve_split(root, args.split)
+    if args.scenes is not None:
+        args.scenes = parse_videos(",".join(args.scenes), "scene list")
     from .symmetric_sets import parse_symmetric
     sym, sym_label = parse_symmetric(args.symmetric)
     options = EvalOptions(symmetric_obj_ids=sym, symmetric_set=sym_label, use_symmetries=args.use_symmetries,

@@ -11,6 +11,8 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
+import tempfile
 import queue
 import subprocess
 import sys
@@ -32,6 +34,9 @@ class BlenderWorker:
         self._log = open(log, "ab") if log else subprocess.DEVNULL
         e = dict(os.environ)
         e.update(env or {})
+        # the worker's scratch folder (render EXRs, textures) lives here and is removed at close()
+        self._tmp = tempfile.mkdtemp(prefix="ycbvss-blender-")
+        e["YCBVSS_BLENDER_TMP"] = self._tmp
         self.proc = subprocess.Popen([sys.executable, "-m", "ycbvss.blender_scripts.worker"],
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
                                      text=True, bufsize=1, env=e)
@@ -74,6 +79,7 @@ class BlenderWorker:
                 self.proc.wait()
         if self._log not in (None, subprocess.DEVNULL):
             self._log.close()
+        shutil.rmtree(self._tmp, ignore_errors=True)
 
     def __enter__(self):
         return self

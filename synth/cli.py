@@ -19,17 +19,23 @@ def register(sub) -> None:
     p.add_argument("action", nargs="?", choices=["run", "preview"], default="run",
                    help="run (default) or preview (QA images of a YCBV-SS output)")
     p.add_argument("--dataset", required=True, help="input: BOP root or YCB-Video root (for preview: the YCBV-SS root)")
-    p.add_argument("--split", default="test", help="BOP split to read and to write (default: test)")
+    p.add_argument("--split", default=None,
+                   help="BOP split to read and to write (default: the input's only split; 'test' for a YCB-Video root)")
     p.add_argument("--out", help="output BOP root (run); preview folder (preview, default DATASET/preview)")
     p.add_argument("--scenes", help="scene/video ids, e.g. 0,1 or 48-59 (default: all)")
     p.add_argument("--poses", help="BOP19 results CSV with refined poses (recentred BOP model frame) to render "
                                    "instead of scene_gt")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0,
+                   help="master seed: Cycles and noise seeds are derived from (seed, scene, frame), so a frame is "
+                        "identical whatever the workers, executor or resume (default 0)")
     p.add_argument("--workers", type=int, default=None, help="Blender worker processes (default: cores/2, each with cores/workers render threads: "
                                                      "all cores)")
-    p.add_argument("--executor", choices=["local", "ray"], default="local")
-    p.add_argument("--address", default=None, help="Ray address (e.g. auto)")
-    p.add_argument("--chunk", type=int, default=8, help="frames per Ray task")
+    p.add_argument("--executor", choices=["local", "ray"], default="local",
+                   help="local: Blender worker processes on this machine (default); ray: Ray tasks on a cluster "
+                        "(needs `pip install ycbvss[ray]` and --address)")
+    p.add_argument("--address", default=None, help="Ray address (e.g. auto or ray://HOST:10001)")
+    p.add_argument("--chunk", type=int, default=8,
+                   help="frames per Ray task (larger: less scheduling overhead, coarser load balance; default 8)")
     p.add_argument("--samples", type=int, default=4, help="Cycles samples per pixel")
     p.add_argument("--denoise", action="store_true", help="OpenImageDenoise (slower)")
     p.add_argument("--max-bounces", type=int, default=1)
@@ -50,6 +56,12 @@ def register(sub) -> None:
 
 def _handler(args: argparse.Namespace) -> int:
     from ..errors import YcbvssError
+    from ..io.bop_dataset import resolve_split, split_names
+    from pathlib import Path
+    if args.action == "preview" or split_names(args.dataset):
+        args.split = resolve_split(args.dataset, args.split)
+    elif args.split is None:
+        args.split = "test"                      # YCB-Video root input: the output split name
     if args.action == "preview":
         from .preview import write_preview
         out = write_preview(args.dataset, args.split, args.out, _scenes(args.scenes))
@@ -69,7 +81,12 @@ def _handler(args: argparse.Namespace) -> int:
                         scales={int(k): float(v) for k, v in (kv.split(":") for kv in args.scales.split(","))}
                         if args.scales else None)
     rep = run_synth(args.dataset, args.split, args.out, _scenes(args.scenes), args.poses, opts)
-    print(f"YCBV-SS: {rep['frames']['done']} frames, {len(rep['frames']['skipped'])} skipped -> {args.out}")
+    n_new = rep.get("_timing", {}).get("n", 0)
+    n_done = rep["frames"]["done"]
+    print(f"YCBV-SS split {args.split}: {n_done} frames done ({n_new} synthesised now, {n_done - n_new} resumed from "
+          f"an earlier run), {len(rep['frames']['skipped'])} skipped -> {args.out}")
+    for s in rep["frames"]["skipped"][:10]:
+        print(f"  skipped scene {s['scene_id']} frame {s['im_id']}: {s['reason']}")
     for oid, o in rep["objects"].items():
         print(f"  obj {int(oid):2d} {o['name']:<22s} scale {o['scale']:.3f} coverage {o['coverage_before']:.4f} -> "
               f"{o['coverage_after']}{' FLAGGED' if o['flagged'] else ''}  dE {o.get('dE_before')} -> {o.get('dE_after')}")

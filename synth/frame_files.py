@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import YcbvssError
-from ..io.atomic import write_json_atomic
+from ..io.atomic import _FILE_MODE, write_json_atomic
 
 PNG_PARAMS = None
 
@@ -65,6 +65,7 @@ class FrameFiles:
             for tmp, final in self._pending:
                 with open(tmp, "rb+") as f:
                     os.fsync(f.fileno())
+                os.chmod(tmp, _FILE_MODE)       # mkstemp made it 0600: give it the umask's mode (0644 normally)
             for tmp, final in self._pending:
                 os.replace(tmp, final)
                 self._committed.append(final)

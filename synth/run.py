@@ -303,11 +303,11 @@ def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int
     from .executors import make_executor
     opts = opts or SynthOptions()
     out = Path(out)
+    ds, layout, scene_loader = open_input(dataset, split, scenes)     # input errors before --out is created
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise YcbvssError(f"output folder not writable: {e.strerror}", out) from None
-    ds, layout, scene_loader = open_input(dataset, split, scenes)
     own_exec = executor is None
     ex = executor or make_executor(opts.executor, opts.workers, opts.address, opts.chunk)
     try:

@@ -118,7 +118,7 @@ BAD_CASES = {
               "NaN/inf", "scene 48 frame 1 object 1"),
     "behind_camera": (GT, lambda d: d["1"][1].__setitem__("cam_t_m2c", [0, 0, -500]),
                       "behind the camera", "scene 48 frame 1 object 2"),
-    "unknown_obj_id": (GT, lambda d: d["2"][0].__setitem__("obj_id", 7), "unknown obj_id 7",
+    "unknown_obj_id": (GT, lambda d: d["2"][0].__setitem__("obj_id", 7), "obj_id 7 has no usable model: no model file",
                        "scene 48 frame 2 object 7"),
     "K_not_3x3": (CAM, lambda d: d["2"].__setitem__("cam_K", [100, 0, 31.5, 0, 100, 23.5, 0, 0]),
                   "must be 3x3", "scene 48 frame 2"),

@@ -237,7 +237,11 @@ def read_scene_gt(path: str | Path, scene_id: int | None = None,
             oid = _int_key(e["obj_id"], path, "obj_id")
             wh = fmt_where(scene_id, im, oid)
             if known is not None and oid not in known:
-                raise YcbvssError(f"unknown obj_id {oid} (no such model)", path, wh)
+                ply = path.parent.parent.parent / "models" / model_filename(oid)
+                why = (f"{ply} exists but models_info.json has no entry \"{oid}\" (add it, e.g. by re-running "
+                       "convert)" if ply.is_file() else f"no model file {model_filename(oid)} and no models_info.json "
+                       "entry for it")
+                raise YcbvssError(f"obj_id {oid} has no usable model: {why}", path, wh)
             R = _floats(e["cam_R_m2c"], 9, path, wh, "cam_R_m2c").reshape(3, 3)
             t = _floats(e["cam_t_m2c"], 3, path, wh, "cam_t_m2c")
             check_pose(R, t, path, wh, rot_tol)

@@ -142,3 +142,27 @@ def write_all_dataset_files(root: str | Path, splits, info_md: str | None = None
         write_models_eval(root, show_progress=show_progress)
     if info_md is not None:
         write_text_atomic(root / "dataset_info.md", info_md)
+
+
+def split_names(root: str | Path) -> list[str]:
+    """Split folders of a BOP root: sub-folders holding at least one scene folder with scene_camera.json."""
+    root = Path(root)
+    if not root.is_dir():
+        return []
+    out = []
+    for d in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        if any(s.is_dir() and s.name.isdigit() and (s / "scene_camera.json").is_file() for s in d.iterdir()):
+            out.append(d.name)
+    return out
+
+
+def resolve_split(root: str | Path, split: str | None) -> str:
+    """``split`` if given; else the only split of the BOP root (error naming the choices otherwise)."""
+    if split:
+        return split
+    names = split_names(root)
+    if len(names) == 1:
+        return names[0]
+    if not names:
+        raise YcbvssError("no split folder (with scene folders) in this BOP root; give --split", root)
+    raise YcbvssError(f"several splits ({', '.join(names)}): choose one with --split", root)
