@@ -15,7 +15,12 @@ def register(sub) -> None:
     p.add_argument("--init", required=True,
                    help="initial poses: a BOP19 results CSV, or 'scene_gt' to start from each scene's scene_gt.json")
     p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--scenes", type=int, nargs="*", default=None, help="scene ids (default: all)")
+    p.add_argument("--scenes", nargs="*", default=None, help="scene ids, e.g. 0,1 or 48-59 (default: all)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="scenes refined in parallel (local processes, each with cores/workers threads; default 1)")
+    p.add_argument("--executor", choices=["local", "ray"], default="local",
+                   help="local processes (default) or Ray tasks (--address); finished scenes are skipped on re-run")
+    p.add_argument("--address", default=None, help="Ray address (e.g. auto)")
     p.add_argument("--models-subdir", default="models")
     p.add_argument("--no-edge", action="store_true", help="drop the edge term")
     p.add_argument("--no-point", action="store_true", help="drop the point (3D-2D flow match) term")
@@ -28,19 +33,52 @@ def register(sub) -> None:
     p.set_defaults(func=_run)
 
 
-def _run(args: argparse.Namespace) -> int:
+def _refine_job(job: dict) -> dict:
+    """Refine one scene and write its outputs (runs in a worker process for --workers > 1). The scene's
+    estimates file ``refine/<scene>_estimates.csv`` is written last: it marks the scene done (resume)."""
     import time
+    from pathlib import Path
+
+    from ycbvss.io.bop import load_dataset
+    from ycbvss.io.results import write_bop19_csv
+
+    from .bundle import refine_scene
+    from .io import estimates_of, write_scene_outputs
+
+    sid = job["scene_id"]
+    ds = load_dataset(job["dataset"], job["split"], models_subdir=job["models_subdir"], scene_ids=[sid])
+    scene = ds.load_scene(sid)
+    init = job["init"]
+    if init is None:
+        init = {(f.im_id, i.obj_id): i.T_m2c for f in scene.frames for i in f.instances}
+    t0 = time.perf_counter()
+    res = refine_scene(scene, ds.models, init, job["opt"])
+    dt = (time.perf_counter() - t0) / max(len(scene.frames), 1)
+    write_scene_outputs(job["out"], job["split"], scene, res)
+    write_bop19_csv(_part_path(job["out"], sid), estimates_of(sid, res, dt))
+    counts = {k: sum(1 for v in res.status.values() if v == k) for k in ("converged", "uncertain", "failed")}
+    return {"scene_id": sid, "n_poses": len(res.poses), "counts": counts, "total_s": res.stats.get("total_s", 0)}
+
+
+def _part_path(out, sid: int):
+    from pathlib import Path
+    return Path(out) / "refine" / f"{sid:06d}_estimates.csv"
+
+
+def _run(args: argparse.Namespace) -> int:
+    import os
     from pathlib import Path
 
     from ycbvss.errors import YcbvssError
     from ycbvss.io.bop import load_dataset
     from ycbvss.io.results import read_bop19_csv, write_bop19_csv
-    from ycbvss.progress import progress
+    from ycbvss.io.ycbv import parse_videos
+    from ycbvss.parallel import run_jobs
 
-    from .bundle import RefineOptions, refine_scene
-    from .io import estimates_of, write_scene_outputs
+    from .bundle import RefineOptions
 
-    ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=args.scenes)
+    scenes = None if args.scenes is None else parse_videos(",".join(args.scenes), "scene list")
+    ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)
     opt = RefineOptions(use_edge=not args.no_edge, use_point=not args.no_point, use_temporal=not args.no_temporal,
                         keyframe_step=args.keyframe_step)
     for k in ("alpha", "beta", "max_iters"):
@@ -56,21 +94,35 @@ def _run(args: argparse.Namespace) -> int:
             if key not in csv_init or e.score > csv_init[key][0]:
                 csv_init[key] = (e.score, e.T_m2c)
     out = Path(args.out)
-    ests = []
-    for scene in progress(ds.iter_scenes(), desc="refine", total=len(ds.scene_ids), unit="scene"):
-        if csv_init is None:
-            init = {(f.im_id, i.obj_id): i.T_m2c for f in scene.frames for i in f.instances}
-        else:
-            init = {(im, o): T for (s, im, o), (_, T) in csv_init.items() if s == scene.scene_id}
-        if not init:
-            raise YcbvssError(f"no initial poses for scene {scene.scene_id}", args.init)
-        t0 = time.perf_counter()
-        res = refine_scene(scene, ds.models, init, opt)
-        dt = (time.perf_counter() - t0) / max(len(scene.frames), 1)
-        ests += estimates_of(scene.scene_id, res, dt)
-        write_scene_outputs(out, args.split, scene, res)
-        counts = {k: sum(1 for v in res.status.values() if v == k) for k in ("converged", "uncertain", "failed")}
-        print(f"scene {scene.scene_id}: {len(res.poses)} poses ({counts['converged']} converged, "
-              f"{counts['uncertain']} uncertain, {counts['failed']} failed), {res.stats.get('total_s', 0):.1f} s")
+    try:                                     # an unwritable --out is found before any work
+        (out / "refine").mkdir(parents=True, exist_ok=True)
+        probe = out / "refine" / f".write-test-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as e:
+        raise YcbvssError(f"output folder not writable: {e.strerror}", out) from None
+    jobs, resumed = [], []
+    for sid in ds.scene_ids:
+        init = None
+        if csv_init is not None:
+            init = {(im, o): T for (s, im, o), (_, T) in csv_init.items() if s == sid}
+            if not init:
+                raise YcbvssError(f"no initial poses for scene {sid}", args.init)
+        if _part_path(out, sid).is_file():
+            resumed.append(sid)
+            continue
+        jobs.append({"dataset": str(args.dataset), "split": args.split, "models_subdir": args.models_subdir,
+                     "scene_id": sid, "init": init, "opt": opt, "out": str(out)})
+    if resumed:
+        print(f"{len(resumed)} scene(s) already refined in {out} (resumed): {', '.join(map(str, resumed))}")
+
+    def report(job, r):
+        c = r["counts"]
+        print(f"scene {r['scene_id']}: {r['n_poses']} poses ({c['converged']} converged, "
+              f"{c['uncertain']} uncertain, {c['failed']} failed), {r['total_s']:.1f} s")
+
+    run_jobs(_refine_job, jobs, workers=args.workers, executor=args.executor, address=args.address,
+             desc="refine", on_result=report)
+    ests = [e for sid in ds.scene_ids for e in read_bop19_csv(_part_path(out, sid))]
     write_bop19_csv(out / f"refine_{ds.name or 'dataset'}-{args.split}.csv", ests)
     return 0
