@@ -166,3 +166,13 @@ def resolve_split(root: str | Path, split: str | None) -> str:
     if not names:
         raise YcbvssError("no split folder (with scene folders) in this BOP root; give --split", root)
     raise YcbvssError(f"several splits ({', '.join(names)}): choose one with --split", root)
+
+
+def write_camera_json(root: str | Path, K: np.ndarray, width: int, height: int, depth_scale: float,
+                      name: str = "camera.json") -> Path:
+    """A single-sensor dataset's camera file (BOP ``camera.json``)."""
+    K = np.asarray(K, np.float64)
+    p = Path(root) / name
+    write_json_atomic(p, {"cx": float(K[0, 2]), "cy": float(K[1, 2]), "depth_scale": float(depth_scale),
+                          "fx": float(K[0, 0]), "fy": float(K[1, 1]), "height": int(height), "width": int(width)})
+    return p

@@ -89,6 +89,19 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
                                               unit="frame"):
                 write(im_id, rgb, depth)
         writer.close()
+    with stages.stage("dataset files (camera.json, targets, models_eval, dataset_info.md)"):
+        from .. import __version__
+        from ..io.atomic import write_text_atomic
+        from ..io.bop_dataset import write_camera_json, write_models_eval, write_targets
+        f0 = scene.frames[0]
+        write_camera_json(root, f0.camera.K, f0.camera.width, f0.camera.height, f0.depth_scale)
+        write_targets(root, "test")
+        write_models_eval(root, show_progress=False)
+        write_text_atomic(root / "dataset_info.md", (
+            f"# ycbvss demo dataset (ycbvss {__version__}, `ycbvss demo`)\n\nA procedural table-top scene "
+            f"(seed {o.seed}), {o.frames} frames rendered with {o.renderer} at {o.width}x{o.height}; exact GT "
+            "(the models in models/ are the rendered ones, not dilated). scene_gt_info.json and masks by "
+            "bop_toolkit's calc_gt_info rules.\n"))
     return root, scene
 
 
