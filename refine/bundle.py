@@ -24,7 +24,7 @@ from .solver import SolverOptions, covariance, run_lm
 from .templates import (composite, ensure_meshes, get_renderer, object_mask, render_view, select_edge_samples,
                         view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
-from .confidence import calibrate_sigmas, classify, contour_offset_px, sigma_add_mm
+from .confidence import calibrate_sigmas, classify, contour_offset_px, sigma_add_mm, sigma_scale
 from .uncertainty import pose_sigmas
 
 
@@ -662,7 +662,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         converged = False
     sigma = calibrate_sigmas(pose_sigmas(np.where(bad_cam[:, None, None], T_c_init, T_c),
                                          np.where(bad_obj[:, None, None], pb0.T_m, T_m), cam_cov, obj_cov, cross,
-                                         [v.im_id for v in views], obj_ids, known & ~bad_obj))
+                                         [v.im_id for v in views], obj_ids, known & ~bad_obj), narrow)
+    stats["sigma_scale"] = list(sigma_scale(narrow))
     t0 = time.perf_counter()
     q_idx = np.unique(np.round(np.linspace(0, n - 1, min(8, n))).astype(int))
     with_images(q_idx)

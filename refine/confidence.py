@@ -9,8 +9,8 @@ Three measurements per object of a scene:
   or turned away shows its contour off the image edges by pixels; a correct pose puts it within
   a fraction of a pixel.
 - ``sigma``: per-pose standard deviations from the bundle covariance, multiplied by the
-  calibration factors ``SIGMA_SCALE`` measured on the ycbv21 suite (so that the true error is
-  within 2 sigma for >= 90 % of the poses on every axis), folded into one ``sigma_add_mm``
+  calibration factors ``SIGMA_SCALE_NARROW`` / ``SIGMA_SCALE_WIDE`` measured on the ycbv21 suite
+  (2 sigma covers 90 % of the converged development poses per axis), folded into one ``sigma_add_mm``
   (the ADD a 1-sigma pose error would give).
 - ``moved_add_mm``: how far the pose moved in the last outer iteration (its camera's and its
   object's translation change plus the rotation change acting at the object's mean radius).
@@ -39,8 +39,14 @@ FAIL_PX = 2.5
 SIGMA_OK_MM = 2.0
 CONF_SIGMA_MM = 4.0
 MOVE_TOL_MM = 0.25
-# sigma calibration (multiplies the covariance sigmas; tx, ty, tz, R), measured on the ycbv21 suite
-SIGMA_SCALE = (1.0, 1.0, 1.0, 1.0)
+# sigma calibration: factors (tx, ty, tz, R) on the covariance sigmas so that 2 sigma covers 90 % of
+# the converged poses of the ycbv21 suite's development runs (scenes 1, 4-6, seed 0; the held-out
+# scenes and seeds are reported, not fitted). Clips seen within the narrow viewing baseline of
+# ``RefineOptions.min_baseline_deg`` (short clips) need larger factors than wide ones: their few,
+# nearly identical views leave systematic errors the covariance does not see. Measured factors:
+# narrow (2.61, 1.29, 1.30, 6.55), wide (0.57, 0.36, 0.87, 1.37); the wide ones are floored at 1.
+SIGMA_SCALE_NARROW = (2.6, 1.3, 1.3, 6.6)
+SIGMA_SCALE_WIDE = (1.0, 1.0, 1.0, 1.4)
 
 STATUSES = ("converged", "uncertain", "failed")
 
@@ -134,13 +140,19 @@ def contour_offset_px(image_mag: np.ndarray, template_mag: np.ndarray, instance:
     return offs[1] if len(offs) >= 2 else offs[0]
 
 
-def calibrate_sigmas(sigma: dict) -> dict:
-    """Apply the calibration ``SIGMA_SCALE`` to every ``sigma_t_mm`` / ``sigma_r_deg`` entry of a
-    :func:`ycbvss.refine.uncertainty.pose_sigmas` result (in place; returned)."""
+def sigma_scale(narrow: bool) -> tuple[float, float, float, float]:
+    """The calibration factors (tx, ty, tz, R) for a narrow- or a wide-baseline bundle."""
+    return SIGMA_SCALE_NARROW if narrow else SIGMA_SCALE_WIDE
+
+
+def calibrate_sigmas(sigma: dict, narrow: bool) -> dict:
+    """Apply the calibration :func:`sigma_scale` to every ``sigma_t_mm`` / ``sigma_r_deg`` entry of
+    a :func:`ycbvss.refine.uncertainty.pose_sigmas` result (in place; returned)."""
+    f = sigma_scale(narrow)
     for group in sigma.values():
         for rec in group.values():
-            rec["sigma_t_mm"] = [float(v) * f for v, f in zip(rec["sigma_t_mm"], SIGMA_SCALE[:3])]
-            rec["sigma_r_deg"] = float(rec["sigma_r_deg"]) * SIGMA_SCALE[3]
+            rec["sigma_t_mm"] = [float(v) * k for v, k in zip(rec["sigma_t_mm"], f[:3])]
+            rec["sigma_r_deg"] = float(rec["sigma_r_deg"]) * f[3]
     return sigma
 
 

@@ -23,7 +23,6 @@ import numpy as np
 
 from ..errors import YcbvssError
 from ..io.atomic import write_json_atomic
-from ..refine.confidence import SIGMA_SCALE
 from .suite import Clip, SuiteScene, clip_scene, clips_of
 
 ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant", "im_id", "obj_id",
@@ -99,6 +98,7 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
         res = refine_scene(sc, models, init, ro)
     dt = time.perf_counter() - t0
     rows = []
+    f = res.stats.get("sigma_scale", (1.0, 1.0, 1.0, 1.0))
     for oid in sorted({k[1] for k in gt}):
         keys = sorted(k for k in gt if k[1] == oid and k in res.poses)
         if not keys:
@@ -128,11 +128,11 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 "add_mm": float(E["adds_mm"][n] if m.symmetric else E["add_mm"][n]),
                 "init_add_mm": float(E0["adds_mm"][n] if m.symmetric else E0["add_mm"][n]),
                 "init_prj_px": float(E0["prj_px"][n]),
-                # the covariance sigmas before calibration (the report applies confidence.SIGMA_SCALE)
-                "sigma_tx_mm": sp["sigma_t_mm"][0] / SIGMA_SCALE[0] if sp else float("nan"),
-                "sigma_ty_mm": sp["sigma_t_mm"][1] / SIGMA_SCALE[1] if sp else float("nan"),
-                "sigma_tz_mm": sp["sigma_t_mm"][2] / SIGMA_SCALE[2] if sp else float("nan"),
-                "sigma_r_deg": sp["sigma_r_deg"] / SIGMA_SCALE[3] if sp else float("nan"),
+                # the covariance sigmas before calibration (the report applies the calibration)
+                "sigma_tx_mm": sp["sigma_t_mm"][0] / f[0] if sp else float("nan"),
+                "sigma_ty_mm": sp["sigma_t_mm"][1] / f[1] if sp else float("nan"),
+                "sigma_tz_mm": sp["sigma_t_mm"][2] / f[2] if sp else float("nan"),
+                "sigma_r_deg": sp["sigma_r_deg"] / f[3] if sp else float("nan"),
                 "status": res.status.get(k, "failed"), "confidence": float(res.confidence.get(k, 0.0)),
                 "contour_px": float(res.quality.get(oid, {}).get("contour_px", float("nan"))),
                 "time_s": dt, "n_frames": len(sc.frames)})
