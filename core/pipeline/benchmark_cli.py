@@ -68,8 +68,8 @@ def register(subparsers) -> None:
     s.add_argument("--out", required=True)
     s.add_argument("--dataset", default=None, help="dataset root (default: the one in the config)")
     s.add_argument("--symmetric", default=None,
-                   help="obj_ids scored with ADD-S, comma-separated, 'paper' (13 = 024_bowl) or 'none' "
-                        "(default ycbv: paper; bcot: none)")
+                   help="ADD-S set: paper (13 = 024_bowl), bop, posecnn, none or comma-separated obj_ids "
+                        "(ycbvss.eval.symmetric_sets; default ycbv: paper, bcot: none)")
     s.add_argument("--adds-all", action="store_true", help="also compute ADD-S for every object (errors CSV)")
     s.add_argument("--no-curves", action="store_true")
     s.add_argument("--no-frame-errors", action="store_true", help="skip errors_<tracker>.csv")
@@ -144,14 +144,11 @@ def cmd_score(args: argparse.Namespace) -> int:
     ds = cfg["dataset"]
     root = Path(args.dataset or ds.get("root", ""))
     layout = ds.get("layout", "bop")
+    from ..eval.symmetric_sets import parse_symmetric
     if args.symmetric is None:
-        sym = (13,) if cfg["protocol"] == "ycbv" else ()
-    elif args.symmetric.strip().lower() == "none":
-        sym = ()
-    elif args.symmetric.strip().lower() == "paper":
-        sym = (13,)
+        sym, sym_label = ((13,), "paper") if cfg["protocol"] == "ycbv" else ((), "none")
     else:
-        sym = _ints(args.symmetric, "--symmetric")
+        sym, sym_label = parse_symmetric(args.symmetric)
     scenes = sorted({int(s["scene_id"]) for s in cfg["subsequences"]})
     seqs, _ = load_sequences(root, layout, ds.get("split") or None, scenes, ds.get("bcot_test_scenes"))
     models = load_models(root, layout)
@@ -174,7 +171,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     names = {int(k): v for k, v in ds.get("objects", {}).items()}
     names.update({o: m.label for o, m in models.items() if o not in names})
     paths = write_report(scores, gti, cfg, args.out, names,
-                         {"symmetric_obj_ids": list(sym), "adds_all": args.adds_all},
+                         {"symmetric_obj_ids": list(sym), "symmetric_set": sym_label, "adds_all": args.adds_all},
                          curves=not args.no_curves, per_frame=not args.no_frame_errors)
     print(ranking_markdown(scores, names))
     print(f"scored {len(gti)} (frame, object) pairs x {len(scores)} tracker(s) in {dt:.2f} s; "
