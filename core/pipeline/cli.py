@@ -158,7 +158,7 @@ def _print_summary(summary: dict, what: str, stages=None) -> None:
     print(summary["table4_md"], file=out)
     if summary.get("table5_md"):
         print(summary["table5_md"], file=out)
-    if summary.get("mode") == "validate":
+    if summary.get("mode") in ("validate", "demo"):
         i = summary["initial"]
         r = summary["refined"]
         print(f"initial poses: mean ADD {i['achieved_add_mm']:.2f} mm (target {i['target_add_mm']:g}), "

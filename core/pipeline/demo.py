@@ -83,6 +83,8 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
                     write(im_id, rgb, depth)
             finally:
                 bar.close()
+            import shutil                # Blender's EXR/PNG frames are in the dataset now: drop the scratch copy
+            shutil.rmtree(Path(o.out) / "work", ignore_errors=True)
         else:
             write_models(scene, root / "models")
             for im_id, rgb, depth in progress(render_fast(scene), desc="render (fast)", total=len(scene.frames),
@@ -118,4 +120,10 @@ def run_demo(opts: DemoOptions, stages: Stages | None = None) -> dict:
                                      "frames": o.frames, "camera arc baseline (deg)": round(scene.baseline_deg, 1),
                                      "PRJ target note": "5.2 px at 640 px width, scaled with the image width"
                                      if opts.init_prj_px is None else "as given"})
-    return run_validate(vo, stages)
+    summary = run_validate(vo, stages)
+    summary["mode"] = "demo"                 # the validate loop on the demo's own procedural dataset
+    from ..io.atomic import read_json, write_json_atomic
+    sp = Path(o.out) / "summary.json"
+    if sp.is_file():
+        write_json_atomic(sp, {**read_json(sp), "mode": "demo"})
+    return summary
