@@ -10,7 +10,8 @@ import numpy as np
 from ..io.images import write_png
 
 # RGB colours of the pose sets in overlays and curves
-COLORS = {"gt": (255, 255, 255), "original": (255, 170, 0), "initial": (255, 60, 60), "refined": (40, 200, 60),
+# (initial is magenta, not red: a red contour vanishes on the red mug and the red cans)
+COLORS = {"gt": (255, 255, 255), "original": (255, 170, 0), "initial": (255, 0, 255), "refined": (40, 200, 60),
           "using all": (40, 200, 60),
           "w/o f_edge": (80, 160, 255), "w/o f_point": (200, 90, 255), "w/o f_t": (255, 150, 40)}
 
@@ -40,7 +41,12 @@ def panel(image_rgb: np.ndarray, maps: list[tuple[np.ndarray, tuple, int]], labe
         ids = [int(o) for o in np.unique(om) if o != 0]
         if ids:
             im = contour_overlay(im, [om == o for o in ids], colors=color, thickness=thick)
-    return put_label(im, label, scale=max(0.4, image_rgb.shape[0] / 900.0))
+    # the label is the panel's legend: "<set> (colour)" written in the set's own colour, "GT white" beside it
+    sets = [tuple(c) for _, c, _ in maps if tuple(c) != COLORS["gt"]]
+    has_gt = any(tuple(c) == COLORS["gt"] for _, c, _ in maps)
+    legend = f"{label} (this colour)" + (", GT white" if has_gt else "") if sets else label
+    color = sets[-1] if sets else (255, 255, 255)
+    return put_label(im, legend, scale=max(0.4, image_rgb.shape[0] / 900.0), color=color)
 
 
 def crop_box(obj_maps: list[np.ndarray], pad_frac: float = 0.08) -> tuple[int, int, int, int] | None:

@@ -182,11 +182,24 @@ def _curves(out_dir: Path, errs: dict, models: dict) -> list[Path]:
     ref = errs.get("using all")
     if ref is not None:
         names = {o: models[o].label for o in ref}
+        add_max = _nice_max([v["add_mm"] for v in ref.values()])
+        prj_max = _nice_max([v["prj_px"] for v in ref.values()])
         paths.append(plot_curves({o: v["add_mm"] for o, v in ref.items()}, {o: v["prj_px"] for o, v in ref.items()},
                                  out_dir / "curves_per_object_refined.png", names=names,
-                                 add_bound_mm=10.0, prj_bound_px=2.0,
-                                 title="refined poses, per object (ADD(-S) 0-10 mm, PRJ 0-2 px)"))
+                                 add_bound_mm=add_max, prj_bound_px=prj_max,
+                                 title=f"refined poses, per object (ADD(-S) 0-{add_max:g} mm, PRJ 0-{prj_max:g} px: "
+                                       "axes scaled to the data)"))
     return paths
+
+
+def _nice_max(arrays) -> float:
+    """Axis end for error curves: 1.25 x the 99th percentile, rounded up to 1, 2 or 5 x 10^k."""
+    v = np.concatenate([np.asarray(a, np.float64).ravel() for a in arrays]) if arrays else np.zeros(0)
+    v = v[np.isfinite(v)]
+    x = 1.25 * float(np.percentile(v, 99)) if v.size else 1.0
+    x = max(x, 1e-3)
+    k = 10.0 ** np.floor(np.log10(x))
+    return float(next(m * k for m in (1, 2, 5, 10) if m * k >= x))
 
 
 # ----------------------------------------------------------------------------- HTML
