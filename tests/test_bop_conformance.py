@@ -183,6 +183,14 @@ def test_synth_gt_info_is_bop(converted, tmp_path):
               opts=SynthOptions(samples=2, seed=1, workers=1, frames=[1]))
     assert_bop_conformant(out, "train_real", n_min=4)
     assert_dataset_files(out, "train_real", n_models=4)    # the input (convert with obj_ids=[]) has 4 models
+    umask = os.umask(0)
+    os.umask(umask)
+    for rel in ("rgb/000001.png", "depth/000001.png", "mask_visib/000001_000000.png"):
+        assert (out / "train_real/000001" / rel).stat().st_mode & 0o777 == 0o666 & ~umask, rel
+    from ycbvss.errors import YcbvssError
+    with pytest.raises(YcbvssError):                    # an input error leaves no --out behind
+        run_synth(tmp_path / "no_such_dataset", "train_real", tmp_path / "never", opts=SynthOptions(workers=1))
+    assert not (tmp_path / "never").exists()
     assert len(json.loads((out / "models_original" / "models_info.json").read_text())) == 4
 
 
