@@ -636,8 +636,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if nonkey and not opt.fix_cameras:
         cam_move_mm[nonkey], cam_move_deg[nonkey] = nk_res["cam_move_mm"][nonkey], nk_res["cam_move_deg"][nonkey]
     obj_move = stage.obj_move
-    bad_cam = ~np.all(np.isfinite(T_c.reshape(n, -1)), axis=1)
-    bad_obj = ~np.all(np.isfinite(T_m.reshape(len(obj_ids), -1)), axis=1)
+    bad_cam = ~np.all(np.isfinite(T_c.reshape(n, 16)), axis=1)
+    bad_obj = ~np.all(np.isfinite(T_m.reshape(len(obj_ids), 16)), axis=1)
     poses, failed = {}, set()
     num_fail = stage.numerical_failure or (bool(nonkey) and not opt.fix_cameras and nk_res["numerical_failure"])
     for i in range(n):

@@ -116,3 +116,13 @@ def test_a_nan_pose_is_failed_and_named_never_silently_replaced(scene3, monkeypa
     assert len(msgs) == 1 and "scene 1" in msgs[0] and "frames 0-2" in msgs[0] and "failed" in msgs[0], msgs
     assert all(np.all(np.isfinite(res.poses[k])) for k in bad)
     assert res.converged is False
+
+
+def test_no_valid_init_pose_gives_an_empty_result_not_a_crash(scene3):
+    ps, imgs, gt = scene3
+    bad = {k: np.full((4, 4), np.nan) for k in gt}
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        res = refine_scene(ps.scene, ps.models, bad, RefineOptions(), images=imgs)
+    assert res.poses == {} and res.missing_objects == sorted(ps.models)
+    assert any("no valid init pose" in str(x.message) for x in w)
