@@ -11,7 +11,7 @@ def register(sub) -> None:
                                    "scene_camera.json (solved cam_R_w2c/cam_t_w2c), world poses, per-pose "
                                    "uncertainty and a convergence log.")
     p.add_argument("--dataset", required=True, help="BOP dataset root (with models/ and the split folder)")
-    p.add_argument("--split", required=True, help="split folder name, e.g. test")
+    p.add_argument("--split", default=None, help="split folder name, e.g. test (default: the dataset's only split)")
     p.add_argument("--init", required=True,
                    help="initial poses: a BOP19 results CSV, or 'scene_gt' to start from each scene's scene_gt.json")
     p.add_argument("--out", required=True, help="output directory")
@@ -77,6 +77,8 @@ def _run(args: argparse.Namespace) -> int:
 
     from .bundle import RefineOptions
 
+    from ycbvss.io.bop_dataset import resolve_split
+    args.split = resolve_split(args.dataset, args.split)
     scenes = None if args.scenes is None else parse_videos(",".join(args.scenes), "scene list")
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)
     opt = RefineOptions(use_edge=not args.no_edge, use_point=not args.no_point, use_temporal=not args.no_temporal,
