@@ -69,16 +69,23 @@ def result_error_table(result: EvalResult, all_from: str = "instances", extra_ro
                        caption=caption or _sym_caption(result))
 
 
+def _sym_label(result: EvalResult) -> str:
+    """The ADD-S set's name; derived from the ids actually used when they are not the named preset's."""
+    from .symmetric_sets import PRESETS, parse_symmetric
+    o = result.summary.get("options", {})
+    label, ids = o.get("symmetric_set", "paper"), tuple(sorted(o.get("symmetric_obj_ids", ())))
+    return label if PRESETS.get(label) == ids else parse_symmetric([str(i) for i in ids])[1]
+
+
 def _sym_caption(result: EvalResult) -> str:
     from .symmetric_sets import header_label
-    o = result.summary.get("options", {})
-    return header_label(o.get("symmetric_set", "paper"), o.get("symmetric_obj_ids", ()))
+    return header_label(_sym_label(result), result.summary.get("options", {}).get("symmetric_obj_ids", ()))
 
 
 def result_score_table(result: EvalResult, caption: str = "") -> Table:
     t = score_table(result.per_object, result.summary, result.names, result.textureless,
                     caption=caption or _sym_caption(result))
-    t.columns[0] = f"ADD(-S) AUC [{result.summary.get('options', {}).get('symmetric_set', 'paper')}]"
+    t.columns[0] = f"ADD(-S) AUC [{_sym_label(result)}]"
     return t
 
 
