@@ -158,11 +158,14 @@ def _covered(r: dict, k: float = 2.0) -> bool:
 
 def capture_table(rows: list[dict]) -> tuple[Table, dict]:
     """Share of poses refined to ADD < 2 mm per init level (mean initial ADD, PRJ), per clip kind."""
+    clips = {r["clip"] for r in rows if r["init"].startswith("add")}
+    rows = [r for r in rows if r["clip"] in clips]          # the clips the levels were run on
     levels = sorted({r["init"] for r in rows if r["init"].startswith("add") or r["init"] == "paper"},
                     key=lambda s: 22.1 if s == "paper" else float(s[3:]))
     kinds = [k for k in ("short", "medium", "long") if any(r["kind"] == k for r in rows)]
     t = Table(columns=["init ADD (mm)", "init PRJ (px)"] + [f"{k}: ADD<2mm" for k in kinds], label_header="init",
-              caption="Capture range: share of poses refined to ADD < 2 mm", digits=3)
+              caption="Capture range: share of poses refined to ADD < 2 mm (clips: " + ", ".join(sorted(clips)) + ")",
+              digits=3)
     curves: dict = {k: [] for k in kinds}
     for lv in levels:
         rs = _sel(rows, init=lv, variant="using all")
