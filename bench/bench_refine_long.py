@@ -24,8 +24,9 @@ class LazyImages:
     """``images.get(im_id)`` renders frame ``im_id`` when the refiner asks for it (nothing cached)."""
 
     def __init__(self, scene):
-        from ycbvss.procedural.render import render_frame_fast
+        from ycbvss.procedural.render import _renderer, render_frame_fast
         self.scene, self.render = scene, render_frame_fast
+        self.gl = _renderer(scene)          # one GL context with the meshes, reused for every frame
         self.frames = {f.im_id: f for f in scene.frames}
         self.n_rendered = 0
 
@@ -34,7 +35,7 @@ class LazyImages:
         if f is None:
             return default
         self.n_rendered += 1
-        return self.render(self.scene, f, noise_sigma=1.5)[0]
+        return self.render(self.scene, f, self.gl, noise_sigma=1.5)[0]
 
 
 def main(argv=None) -> int:
