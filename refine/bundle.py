@@ -258,8 +258,10 @@ class _Stage:
             self._t("temporal_matching_s", time.perf_counter() - t0)
         return terms
 
-    def _record_moves(self, a, b, move: np.ndarray) -> None:
-        """Per camera and per object translation (mm) and rotation (deg) change of one outer iteration."""
+    def _record_moves(self, a, b, move: np.ndarray) -> tuple[float, float]:
+        """Per camera and per object translation (mm) and rotation (deg) change of one outer
+        iteration (kept for the status); returns the largest translation component (mm) and
+        rotation (deg) of any camera or object."""
         nc = len(a[0])
         mm = np.linalg.norm(move, axis=1)
         R0 = np.concatenate([a[0], a[1]])[:, :3, :3]
@@ -267,6 +269,9 @@ class _Stage:
         deg = np.atleast_1d(rotation_angle_deg(np.swapaxes(R0, 1, 2) @ R1)) if len(R0) else np.zeros(0)
         self.cam_move = (mm[:nc], deg[:nc])
         self.obj_move = (mm[nc:], deg[nc:])
+        if not len(move):
+            return 0.0, 0.0
+        return float(np.abs(move).max()), float(deg.max())
 
     def run(self, sigmas) -> list:
         pb, opt = self.pb, self.opt
@@ -301,8 +306,7 @@ class _Stage:
                 self._t("solve_s", time.perf_counter() - t0)
                 st1 = pb.state()
                 move = _translation_change(st, st1)
-                dmm, ddeg = _max_change(st, st1, move)
-                self._record_moves(st, st1, move)
+                dmm, ddeg = self._record_moves(st, st1, move)
                 self.stats["last_change_mm"], self.stats["last_change_deg"] = round(dmm, 4), round(ddeg, 4)
                 drifting = _drifting(move, prev_move, opt.extend_mm) if prev_move is not None else True
                 calm = 0 if drifting else calm + 1
@@ -360,16 +364,6 @@ def _bbox(mask: np.ndarray, margin: int) -> tuple[int, int, int, int]:
     xs = np.flatnonzero(mask.any(axis=0))
     return (max(int(ys[0]) - margin, 0), min(int(ys[-1]) + 1 + margin, H),
             max(int(xs[0]) - margin, 0), min(int(xs[-1]) + 1 + margin, W))
-
-
-def _max_change(a, b, move: np.ndarray) -> tuple[float, float]:
-    """Largest translation (mm, from ``move`` = :func:`_translation_change`) and rotation (deg)
-    change of any camera or object between two states."""
-    if not len(move):
-        return 0.0, 0.0
-    R0 = np.concatenate([a[0], a[1]])[:, :3, :3]
-    R1 = np.concatenate([b[0], b[1]])[:, :3, :3]
-    return float(np.abs(move).max()), float(rotation_angle_deg(np.swapaxes(R0, 1, 2) @ R1).max())
 
 
 def _refine_nonkey(views: list, models: dict, obj_ids: list, known: np.ndarray, T_c: np.ndarray, T_m: np.ndarray,

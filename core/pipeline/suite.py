@@ -172,17 +172,9 @@ def build_scene(spec: SuiteScene, models: dict, root: Path, width: int = 640, he
         bar.close()
     writer.close()
     shutil.rmtree(root / "work" / f"{spec.scene_id:06d}", ignore_errors=True)
-    write_json_atomic(marker, {"hash": h, "spec": asdict(spec), "layout": _jsonable(getattr(sc, "layout", {})),
+    write_json_atomic(marker, {"hash": h, "spec": asdict(spec), "layout": getattr(sc, "layout", {}),
                                "width": width, "height": height, "samples": samples})
     return sdir
-
-
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (np.integer, np.floating)):
-        return x.item()
-    return x
 
 
 def build_suite(src: str | Path, root: str | Path, suite: str = "ycbv21", scene_ids=None, width: int = 640,
