@@ -66,3 +66,41 @@ def cubic_sample(Ep: np.ndarray, u: np.ndarray, v: np.ndarray, with_grad: bool, 
                 hess[p, ch] = ((1.0 - tu) * (1.0 - tv) * Hp[iv + 1, iu + 1, ch] + tu * (1.0 - tv) * Hp[iv + 1, iu + 2, ch]
                                + (1.0 - tu) * tv * Hp[iv + 2, iu + 1, ch] + tu * tv * Hp[iv + 2, iu + 2, ch])
     return val, grad, hess
+
+
+@njit(cache=True, nogil=True)
+def edge_cost_sum(Ep: np.ndarray, height: int, width: int, K: np.ndarray, T: np.ndarray, X: np.ndarray,
+                  min_z_mm: float) -> float:
+    """sum_X E(pi(T X)) over model points X (N, 3) mm for the camera-from-model transform T (4, 4)
+    and intrinsics K (3, 3): E read like :func:`cubic_sample` (no gradient), 1 for a point behind
+    the camera (Z <= ``min_z_mm``), not finite, or outside the image [0, W-1] x [0, H-1]. The
+    projection, validity and inside rules are those of ``jacobians.project_points`` and
+    ``edge.sample_E`` (the cost path of the edge term in one pass, no (N, 2) temporaries)."""
+    total = 0.0
+    wu, dwu, wv, dwv = np.empty(4), np.empty(4), np.empty(4), np.empty(4)
+    for p in range(X.shape[0]):
+        x0, x1, x2 = X[p, 0], X[p, 1], X[p, 2]
+        Yx = T[0, 0] * x0 + T[0, 1] * x1 + T[0, 2] * x2 + T[0, 3]
+        Yy = T[1, 0] * x0 + T[1, 1] * x1 + T[1, 2] * x2 + T[1, 3]
+        Z = T[2, 0] * x0 + T[2, 1] * x1 + T[2, 2] * x2 + T[2, 3]
+        if not (Z > min_z_mm and Z < np.inf and np.isfinite(Yx) and np.isfinite(Yy)):
+            total += 1.0
+            continue
+        x, y = Yx / Z, Yy / Z
+        u = K[0, 0] * x + K[0, 1] * y + K[0, 2]
+        v = K[1, 1] * y + K[1, 2]
+        if not (np.isfinite(u) and np.isfinite(v) and u >= 0 and v >= 0 and u <= width - 1 and v <= height - 1):
+            total += 1.0
+            continue
+        fu, fv = np.floor(u), np.floor(v)
+        iu, iv = int(fu), int(fv)
+        _weights(u - fu, wu, dwu)
+        _weights(v - fv, wv, dwv)
+        s = 0.0
+        for r in range(4):
+            row = 0.0
+            for c in range(4):
+                row += Ep[iv + r, iu + c] * wu[c]
+            s += row * wv[r]
+        total += s
+    return total
