@@ -58,6 +58,23 @@ def table(rows: dict[str, dict], title: str) -> str:
     return "\n".join(lines)
 
 
+def _option_override(text: str) -> tuple[str, object]:
+    """``name=value`` -> (name, value) for a RefineOptions field; the value is a Python literal
+    (number, bool, None, tuple; read with ast.literal_eval, never executed) or else a plain string."""
+    import ast
+    from dataclasses import fields
+
+    from ycbvss.refine import RefineOptions
+
+    name, sep, value = text.partition("=")
+    if not sep or name not in {f.name for f in fields(RefineOptions)}:
+        raise SystemExit(f"--opt {text!r}: expected NAME=VALUE with NAME a RefineOptions field")
+    try:
+        return name, ast.literal_eval(value)
+    except (ValueError, SyntaxError):
+        return name, value
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--frames", type=int, default=8)
@@ -75,7 +92,7 @@ def main() -> None:
     warnings.simplefilter("ignore")
     from ycbvss.refine import RefineOptions, refine_scene
 
-    over = {k: eval(v) for k, v in (a.split("=", 1) for a in args.opt)}
+    over = dict(_option_override(a) for a in args.opt)
     configs = {"using all": RefineOptions(**over)}
     if args.accuracy and not args.no_ablation:
         configs.update({"w/o f_edge": RefineOptions(**{**over, "use_edge": False}),
