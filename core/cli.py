@@ -16,12 +16,12 @@ from .errors import YcbvssError
 # setting ``func`` (handler taking the parsed args, returning an exit code) on each parser.
 _REGISTRARS = [
     ("ycbvss.pipeline.cli", "register"),     # demo, validate
-    ("ycbvss.commands", "register"),         # convert, assets
+    ("ycbvss.pipeline.commands", "register"), # convert, assets
     ("ycbvss.synth.cli", "register"),        # synth, synth preview
     ("ycbvss.refine.cli", "register"),       # refine
     ("ycbvss.eval.cli", "register"),         # eval
     ("ycbvss.pipeline.benchmark_cli", "register"),   # benchmark make|run|score
-    ("ycbvss.export_cli", "register"),       # export, gt
+    ("ycbvss.pipeline.export_cli", "register"), # export, gt
 ]
 
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ycbvss.geometry.se3 import exp_se3
-from ycbvss.geometry.so3 import rotation_angle_deg
+from ..geometry.se3 import exp_se3
+from ..geometry.so3 import rotation_angle_deg
 
 
 def pose_errors(T_est: np.ndarray, T_gt: np.ndarray, pts_mm: np.ndarray, K: np.ndarray) -> dict:

@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ycbvss.errors import YcbvssError
-from ycbvss.geometry.se3 import interpolate_T, inv_T
-from ycbvss.geometry.so3 import is_rotation, rotation_angle_deg
+from ..errors import YcbvssError
+from ..geometry.se3 import interpolate_T, inv_T
+from ..geometry.so3 import is_rotation, rotation_angle_deg
 
 from .edge import edge_field, gradient_magnitude
 from .jacobians import backproject_px

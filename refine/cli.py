@@ -39,8 +39,8 @@ def _refine_job(job: dict) -> dict:
     import time
     from pathlib import Path
 
-    from ycbvss.io.bop import load_dataset
-    from ycbvss.io.results import write_bop19_csv
+    from ..io.bop import load_dataset
+    from ..io.results import write_bop19_csv
 
     from .bundle import refine_scene
     from .io import estimates_of, write_scene_outputs
@@ -69,15 +69,15 @@ def _run(args: argparse.Namespace) -> int:
     import os
     from pathlib import Path
 
-    from ycbvss.errors import YcbvssError
-    from ycbvss.io.bop import load_dataset
-    from ycbvss.io.results import read_bop19_csv, write_bop19_csv
-    from ycbvss.io.ycbv import parse_videos
-    from ycbvss.parallel import run_jobs
+    from ..errors import YcbvssError
+    from ..io.bop import load_dataset
+    from ..io.results import read_bop19_csv, write_bop19_csv
+    from ..io.ycbv import parse_videos
+    from ..parallel import run_jobs
 
     from .bundle import RefineOptions
 
-    from ycbvss.io.bop_dataset import resolve_split
+    from ..io.bop_dataset import resolve_split
     args.split = resolve_split(args.dataset, args.split)
     scenes = None if args.scenes is None else parse_videos(",".join(args.scenes), "scene list")
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ycbvss.geometry.se3 import inv_T
-from ycbvss.geometry.so3 import exp_so3, rotation_angle_deg
+from ..geometry.se3 import inv_T
+from ..geometry.so3 import exp_so3, rotation_angle_deg
 
 from .jacobians import object_point_jacobians
 from .problem import BundleProblem, View

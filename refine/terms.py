@@ -23,7 +23,7 @@ import numpy as np
 
 from .edge import EdgeField, sample_E, sample_field
 from .jacobians import object_point_jacobians, project_points, transfer_point_jacobians
-from ycbvss.geometry.se3 import inv_T
+from ..geometry.se3 import inv_T
 from .problem import BundleProblem
 
 

@@ -74,7 +74,7 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
             writer.write_frame(f, rgb=rgb, depth_mm=depth, masks=masks, masks_visib=masks_visib, gt_info=info)
 
         if o.renderer == "blender":
-            from ..procedural.blender import render_blender
+            from .blender_scene import render_blender
             bar = progress(desc="render (Blender Cycles)", total=len(scene.frames), unit="frame")
             it = render_blender(scene, root / "models", Path(o.out) / "work" / "blender", samples=o.samples,
                                 denoise=o.denoise, workers=o.workers, on_frame=lambda: bar.update(1))

@@ -143,7 +143,7 @@ def build_scene(spec: SuiteScene, models: dict, root: Path, width: int = 640, he
     from ..gt_info import compute_gt_info
     from ..io.atomic import read_json, write_json_atomic
     from ..io.bop import BopSceneWriter
-    from ..procedural.blender import render_blender
+    from .blender_scene import render_blender
     from ..procedural.ycbv_scene import make_ycbv_scene
     from ..progress import progress
     from ..render import Renderer

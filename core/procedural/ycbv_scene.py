@@ -5,7 +5,7 @@ A scene holds 4-7 YCB-V objects resting on a textured table in one of their stab
 few millimetres apart) so that they occlude each other as in YCB-V; a small object may be stacked
 on the top face of a box. The camera follows a slow hand-held path around the objects: a smooth
 arc of ``arc_deg`` degrees with a random-walk wobble, 0.5-1.5 m from the objects. Pure geometry:
-the images are rendered elsewhere (Blender, :mod:`ycbvss.procedural.blender`).
+the images are rendered elsewhere (Blender, :mod:`ycbvss.pipeline.blender_scene`).
 """
 from __future__ import annotations
 

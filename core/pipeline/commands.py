@@ -53,9 +53,9 @@ def register(subparsers) -> None:
 
 
 def run_convert_ycbv(args: argparse.Namespace) -> int:
-    from .convert import convert_ycbv
-    from .errors import YcbvssError
-    from .io.ycbv import parse_videos
+    from ..convert import convert_ycbv
+    from ..errors import YcbvssError
+    from ..io.ycbv import parse_videos
 
     objs = None
     if args.objects:
@@ -79,7 +79,7 @@ def run_convert_ycbv(args: argparse.Namespace) -> int:
 
 
 def run_assets_verify(args: argparse.Namespace) -> int:
-    from .manifest import load_manifest, verify_assets
+    from ..manifest import load_manifest, verify_assets
 
     res = verify_assets(args.root, load_manifest(args.manifest))
     counts: dict[str, int] = {}

@@ -30,13 +30,13 @@ def register(sub) -> None:
 
 
 def _scenes(text):
-    from .io.ycbv import parse_videos
+    from ..io.ycbv import parse_videos
     return parse_videos(text, "scene list")
 
 
 def _run_export(args: argparse.Namespace) -> int:
     from .export import export_refined
-    from .io.bop_dataset import resolve_split
+    from ..io.bop_dataset import resolve_split
     args.split = resolve_split(args.dataset, args.split)
     r = export_refined(args.dataset, args.split, args.refined, args.out, copy=args.copy, scenes=_scenes(args.scenes))
     print(f"exported {len(r['scenes'])} scenes, {r['frames']} frames: {r['refined']} refined poses, {r['kept']} "
@@ -47,7 +47,7 @@ def _run_export(args: argparse.Namespace) -> int:
 
 def _run_gt(args: argparse.Namespace) -> int:
     from .export import write_gt_csv
-    from .io.bop_dataset import resolve_split
+    from ..io.bop_dataset import resolve_split
     args.split = resolve_split(args.dataset, args.split)
     n = write_gt_csv(args.dataset, args.split, args.out, scenes=_scenes(args.scenes))
     print(f"wrote {n} GT poses of split {args.split} to {args.out}")
