@@ -10,6 +10,7 @@ import importlib
 import sys
 import warnings
 
+from . import __version__
 from .errors import YcbvssError
 
 # (module, function): each function takes the argparse sub-parsers object and adds commands,
@@ -30,7 +31,6 @@ def build_parser() -> argparse.ArgumentParser:
         prog="ycbvss",
         description="ycbvss: YCB-Video/BOP data layer, YCBV-SS synthesis, bundle pose refinement "
                     "and pose evaluation. Run `ycbvss COMMAND --help` for the options of a command.")
-    from . import __version__
     p.add_argument("--version", action="version", version=f"ycbvss {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for mod_name, fn in _REGISTRARS:

@@ -17,12 +17,25 @@
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Iterable
 
+import cv2
 import numpy as np
 
+from . import __version__
 from .errors import YcbvssError, where as fmt_where
+from .gt_info import compute_gt_info
+from .io.atomic import read_json, write_json_atomic, write_text_atomic
+from .io.bop import BopSceneWriter, load_models_info, model_filename
+from .io.bop_dataset import write_camera_files, write_models_eval, write_targets
+from .io.images import read_depth_mm
+from .io.mesh import compute_models_info, load_textured_mm, load_vertices_mm, write_ply_mm
+from .io.ycbv import list_frames, load_ycbv_dataset
+from .manifest import bop_symmetries
+from .progress import progress
+from .render import Renderer
 from .scene import Frame, Instance, ObjectModel
 
 TEST_VIDEOS = range(48, 60)
@@ -56,13 +69,11 @@ def bop_to_ycbv_pose(T_bop_mm: np.ndarray, c_mm: np.ndarray) -> np.ndarray:
 
 def _bop_mesh_from_obj(model: ObjectModel, texture_max_px: int | None = None):
     """Load a YCB-V textured.obj, return (mesh recentred in mm, c_mm, texture RGB | None)."""
-    from .io.mesh import load_textured_mm, load_vertices_mm
     v = load_vertices_mm(model.path, 1000.0)
     c_mm = (v.min(axis=0) + v.max(axis=0)) / 2
     mesh, tex = load_textured_mm(model.path, 1000.0)
     mesh.vertices = np.asarray(mesh.vertices, np.float64) - c_mm
     if tex is not None and texture_max_px and max(tex.shape[:2]) > texture_max_px:
-        import cv2
         s = texture_max_px / max(tex.shape[:2])
         tex = cv2.resize(tex, (max(1, round(tex.shape[1] * s)), max(1, round(tex.shape[0] * s))),
                          interpolation=cv2.INTER_AREA)
@@ -77,13 +88,6 @@ def convert_models(ycbv_models: dict[int, ObjectModel], models_dir: Path, overwr
     Returns ({obj_id: c_mm}, {obj_id: ObjectModel of the written PLY (mm, BOP frame)}).
     ``texture_max_px``: downsample textures whose longest side is larger (None: keep).
     """
-    from concurrent.futures import ThreadPoolExecutor
-    from .io.atomic import write_json_atomic
-    from .io.bop import load_models_info, model_filename
-    from .io.mesh import compute_models_info, load_vertices_mm, write_ply_mm
-    from .manifest import bop_symmetries
-    from .progress import progress
-
     models_dir = Path(models_dir)
     ids = sorted(ycbv_models if obj_ids is None else set(int(i) for i in obj_ids))
     for oid in ids:
@@ -126,7 +130,6 @@ def convert_models(ycbv_models: dict[int, ObjectModel], models_dir: Path, overwr
 
 
 def _scene_complete(scene_dir: Path, im_ids: list[int]) -> bool:
-    from .io.atomic import read_json
     p = scene_dir / "scene_camera.json"
     if not (p.is_file() and (scene_dir / "scene_gt.json").is_file() and (scene_dir / "scene_gt_info.json").is_file()):
         return False
@@ -138,7 +141,6 @@ def _scene_complete(scene_dir: Path, im_ids: list[int]) -> bool:
 
 def dataset_info_md(splits, obj_ids, delta_mm: float) -> str:
     """dataset_info.md of a converted YCB-V root."""
-    from . import __version__
     return (f"# YCB-Video in BOP format (written by ycbvss {__version__}, `ycbvss convert ycbv`)\n\n"
             f"- splits: {', '.join(splits)}; targets: "
             + ", ".join(f"`{'test' if s == 'test' else s}_targets_bop19.json`" for s in splits) + "\n"
@@ -164,14 +166,6 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
     model textures larger than this (None: keep the 4096 px YCB textures); ``workers``: threads
     for the model conversion.
     """
-    from .gt_info import compute_gt_info
-    from .io.atomic import write_text_atomic
-    from .io.bop import BopSceneWriter
-    from .io.bop_dataset import write_camera_files, write_models_eval, write_targets
-    from .io.images import read_depth_mm
-    from .io.ycbv import list_frames, load_ycbv_dataset
-    from .progress import progress
-
     t0 = time.perf_counter()
     src, out = Path(src), Path(out)
     if out.resolve() == src.resolve():
@@ -202,7 +196,6 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
             bop_models.update(m2)
             t_models += time.perf_counter() - t1
         if renderer is None:
-            from .render import Renderer
             renderer = Renderer()
         for f in scene.frames:
             insts = [Instance(obj_id=i.obj_id, T_m2c=ycbv_to_bop_pose(i.T_m2c, centers[i.obj_id]), gt_id=i.gt_id)

@@ -7,6 +7,9 @@ tables. Bad input (missing files, malformed CSV, unknown obj_id) -> one error li
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from ..errors import YcbvssError
 
 
 def register(subparsers) -> None:
@@ -38,22 +41,20 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from ..errors import YcbvssError
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.bop import load_models
+    from ..io.bop_dataset import resolve_split
     from ..io.results import read_bop19_csv
+    from ..io.ycbv import parse_videos
     from .evaluate import EstArrays, EvalOptions, GtArrays, evaluate_arrays
     from .outputs import summary_text, write_outputs
-
-    from ..io.bop_dataset import resolve_split
-    from ..io.ycbv import parse_videos
     root = Path(args.dataset)
     if not root.is_dir():
         raise YcbvssError("dataset root not found", root)
     args.split = resolve_split(root, args.split)
     if args.scenes is not None:
         args.scenes = parse_videos(",".join(args.scenes), "scene list")
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from .symmetric_sets import parse_symmetric
     sym, sym_label = parse_symmetric(args.symmetric)
     options = EvalOptions(symmetric_obj_ids=sym, symmetric_set=sym_label, use_symmetries=args.use_symmetries,

@@ -17,8 +17,10 @@ def plot_curves(add_errors: dict, prj_errors: dict, out_png: str | Path, names: 
                 add_bound_mm: float = ADD_BOUND_MM, prj_bound_px: float = PRJ_BOUND_PX,
                 title: str = "", n_thresholds: int = 201) -> Path:
     """``add_errors`` / ``prj_errors``: obj_id -> (n,) errors (ADD(-S) mm / PRJ px, NaN = missing)."""
+    # lazy: matplotlib takes ~0.9 s to import
     import matplotlib
     matplotlib.use("Agg", force=False)
+    # lazy: matplotlib takes ~0.9 s to import
     import matplotlib.pyplot as plt
 
     names = names or {}

@@ -10,15 +10,18 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import YcbvssError
+from ..io.bop import read_scene_camera, read_scene_gt, select_scene_ids
 from ..progress import progress
 from .matching import match
 from .metrics import ERROR_KEYS, pose_errors
 from .model_points import ModelPoints
 from .scores import ADD_BOUND_MM, PRJ_BOUND_PX, object_scores, overall_scores
+from .symmetry import closest_symmetric_gt, model_symmetry_transforms
 
 
 @dataclass
@@ -67,9 +70,6 @@ class GtArrays:
     @classmethod
     def from_bop(cls, root, split: str, models: dict | None = None, scene_ids=None) -> "GtArrays":
         """GT of a BOP split from scene_gt.json + scene_camera.json only (no images read)."""
-        from pathlib import Path
-
-        from ..io.bop import read_scene_camera, read_scene_gt, select_scene_ids
         split_dir = Path(root) / split
         all_ids = select_scene_ids(split_dir, scene_ids)
         rows, Rs, ts, Ks = [], [], [], []
@@ -174,7 +174,6 @@ def _model_points(model, k: int) -> ModelPoints:
 def evaluate_arrays(gt: GtArrays, est: EstArrays, models: dict, options: EvalOptions | None = None
                     ) -> EvalResult:
     """Match estimates to GT instances and compute all errors and scores (see module doc)."""
-    from .symmetry import closest_symmetric_gt, model_symmetry_transforms
     opt = options or EvalOptions()
     sym_ids = _symmetric_ids(models, opt)
     missing_models = sorted(set(gt.obj_id.tolist()) - set(models))

@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model_points import ModelPoints
+from .model_points import ModelPoints, compiled_kernel
 
 
 def _prj_kernel():
     """numba PRJ kernel when ModelPoints' compiled path is available (numba imports), else None."""
-    from .model_points import compiled_kernel
     if compiled_kernel() is None:
         return None
+    # lazy: numba kernels compile/load on import
     from .nn_kernel import prj_kernel
     return prj_kernel
 

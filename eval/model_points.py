@@ -18,6 +18,7 @@ errors) are answered by the KD-tree. Results equal a brute-force search to round
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 
 class ModelPoints:
@@ -56,7 +57,6 @@ class ModelPoints:
     @property
     def tree(self):
         if self._tree is None:
-            from scipy.spatial import cKDTree
             self._tree = cKDTree(self.points)
         return self._tree
 
@@ -112,7 +112,6 @@ class ModelPoints:
         if self._nb is None:
             tp, lo, hi, child, span, depth = build_kdtree(self.points, NB_LEAFSIZE)
             kc = min(NB_CANDIDATES, self.n - 1)
-            from scipy.spatial import cKDTree
             dist, idx = cKDTree(tp).query(tp, k=kc + 2)
             dist, idx = dist.reshape(self.n, -1), idx.reshape(self.n, -1)
             cand = np.ascontiguousarray(idx[:, 1:kc + 1], dtype=np.int64)
@@ -122,12 +121,14 @@ class ModelPoints:
 
     def _grid_data(self):
         if self._grid is None:
-            from .nn_grid import build_grid      # lazy: compiled (numba) module
+            # lazy: compiled (numba) module
+            from .nn_grid import build_grid
             self._grid = build_grid(self._numba_data()[0])
         return self._grid
 
     def _add_adds_grid(self, A, b):
-        from .nn_grid import add_adds_grid_kernel      # lazy: compiled (numba) module
+        # lazy: compiled (numba) module
+        from .nn_grid import add_adds_grid_kernel
         tp, tpT, cand, rho, lo, hi, child, span, depth = self._numba_data()
         add, adds, n_grid, n_tree = add_adds_grid_kernel(tp, A, b, True, cand, rho, tpT, lo, hi, child, span,
                                                          depth, *self._grid_data())
@@ -241,6 +242,7 @@ def compiled_kernel():
     global _KERNEL
     if _KERNEL is None:
         try:
+            # lazy: numba kernels compile/load on import
             from .nn_kernel import add_adds_kernel
             _KERNEL = add_adds_kernel
         except ImportError:

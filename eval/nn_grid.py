@@ -27,6 +27,7 @@ import math
 
 import numpy as np
 from numba import njit, prange
+from scipy.spatial import cKDTree
 
 from .nn_kernel import _nn2
 
@@ -104,7 +105,6 @@ def _fill(tp, origin, s, nx, ny, nz, dc, h, eps, bstart, border, offsets, gidx, 
 def build_grid(tp: np.ndarray, max_cells: int = 1 << 15, shell_frac: float = 0.3, max_list: int = 4096):
     """Grid arrays for :func:`grid_nn2` (see module doc). ``tp`` (P, 3) model points (any order;
     list entries index into it). Shell = ``shell_frac`` x the bounding-box diagonal."""
-    from scipy.spatial import cKDTree
     tp = np.ascontiguousarray(tp, dtype=np.float64)
     lo, hi = tp.min(axis=0), tp.max(axis=0)
     diag = float(np.linalg.norm(hi - lo))

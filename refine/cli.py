@@ -2,6 +2,11 @@
 from __future__ import annotations
 
 import argparse
+import os
+import time
+from pathlib import Path
+
+from ..errors import YcbvssError
 
 
 def register(sub) -> None:
@@ -36,12 +41,9 @@ def register(sub) -> None:
 def _refine_job(job: dict) -> dict:
     """Refine one scene and write its outputs (runs in a worker process for --workers > 1). The scene's
     estimates file ``refine/<scene>_estimates.csv`` is written last: it marks the scene done (resume)."""
-    import time
-    from pathlib import Path
-
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.bop import load_dataset
     from ..io.results import write_bop19_csv
-
     from .bundle import refine_scene
     from .io import estimates_of, write_scene_outputs
 
@@ -61,23 +63,17 @@ def _refine_job(job: dict) -> dict:
 
 
 def _part_path(out, sid: int):
-    from pathlib import Path
     return Path(out) / "refine" / f"{sid:06d}_estimates.csv"
 
 
 def _run(args: argparse.Namespace) -> int:
-    import os
-    from pathlib import Path
-
-    from ..errors import YcbvssError
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.bop import load_dataset
+    from ..io.bop_dataset import resolve_split
     from ..io.results import read_bop19_csv, write_bop19_csv
     from ..io.ycbv import parse_videos
     from ..parallel import run_jobs
-
     from .bundle import RefineOptions
-
-    from ..io.bop_dataset import resolve_split
     args.split = resolve_split(args.dataset, args.split)
     scenes = None if args.scenes is None else parse_videos(",".join(args.scenes), "scene list")
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)

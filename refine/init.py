@@ -12,7 +12,6 @@ import numpy as np
 
 from ..geometry.se3 import inv_T
 from ..geometry.so3 import exp_so3, rotation_angle_deg
-
 from .jacobians import object_point_jacobians
 from .problem import BundleProblem, View
 from .solver import SolverOptions, run_lm

@@ -16,14 +16,13 @@ evaluated with the same samples (model points, matches) for step acceptance.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..geometry.se3 import inv_T
 from .edge import EdgeField, sample_E, sample_field
 from .jacobians import object_point_jacobians, project_points, transfer_point_jacobians
-from ..geometry.se3 import inv_T
 from .problem import BundleProblem
 
 

@@ -30,7 +30,6 @@ import numpy as np
 from ..camera import Camera
 from ..geometry.so3 import is_rotation
 from ..scene import Frame, Scene
-
 from .bundle import RefineOptions, refine_scene
 
 TRACKER_OPTIONS = RefineOptions(

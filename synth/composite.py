@@ -5,10 +5,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
-from .colour_fit import (apply_colour_transform, delta_e2000, fit_colour_adaptive, fit_colour_transfer_mk,
-                         fit_colour_transform, linear_to_srgb, srgb_u8_to_linear)
+from .colour_fit import (
+    apply_colour_transform,
+    delta_e2000,
+    fit_colour_adaptive,
+    fit_colour_transfer_mk,
+    fit_colour_transform,
+    linear_to_srgb,
+    srgb_u8_to_linear,
+)
 from .noise import NoiseParams, add_sensor_noise, blur_premultiplied
 
 
@@ -23,7 +31,6 @@ class CompositeObject:
 
 def _fit_pixels(index: np.ndarray, alpha: np.ndarray, pi: int, orig_visible: np.ndarray,
                 erode_px: int) -> np.ndarray:
-    import cv2
     m = ((index == pi) & orig_visible & (alpha > 0.99)).astype(np.uint8)
     if erode_px > 0:
         m = cv2.erode(m, np.ones((2 * erode_px + 1, 2 * erode_px + 1), np.uint8))
@@ -47,7 +54,6 @@ def composite_frame(orig_rgb: np.ndarray, rgba: np.ndarray, index: np.ndarray,
     rather than with the old object; 0 keeps the real image under the render. ``fit_method``: "adaptive" (ridge towards a per-channel gain, the most regularised
     fit reaching half the dE reduction of plain least squares), "lsq" or "mk" (mean/covariance transfer).
     """
-    import cv2
     rgba = blur_premultiplied(rgba, noise.blur_sigma_px)
     alpha = np.clip(rgba[..., 3], 0.0, 1.0)
     prem = rgba[..., :3]
@@ -115,7 +121,6 @@ def clear_objects(orig_rgb: np.ndarray, object_masks: list[np.ndarray], render_m
                   clear_px: int) -> np.ndarray:
     """In-paint the real objects (masks grown by ``clear_px`` px) and the render footprint from the
     surrounding background; returns ``orig_rgb`` unchanged when ``clear_px`` <= 0 or nothing is masked."""
-    import cv2
     if clear_px <= 0:
         return orig_rgb
     m = render_mask.copy()

@@ -14,6 +14,10 @@ import numpy as np
 
 from ..errors import YcbvssError
 from ..gt_info import gt_info_items
+from ..io.atomic import write_json_atomic
+from ..io.images import read_depth_mm, read_label, read_mask, read_rgb
+from ..io.mesh import load_geometry_mm
+from ..render import Renderer
 from .blender import frame_seed
 from .composite import CompositeObject, composite_frame, merge_depth
 from .frame_files import FrameFiles
@@ -37,8 +41,6 @@ def validate_pose(T: np.ndarray, corners_mm: np.ndarray) -> str | None:
 
 def _fast_renderer(worker, meshes: dict):
     """The per-process fast renderer with the (dilated) output models uploaded once."""
-    from ..io.mesh import load_geometry_mm
-    from ..render import Renderer
     r = worker.cache.get("fast_renderer")
     if r is None:
         r = worker.cache["fast_renderer"] = Renderer()
@@ -57,7 +59,6 @@ def _fast_renderer(worker, meshes: dict):
 
 
 def _orig_visible(task: dict, obj: dict, label: np.ndarray | None, H: int, W: int) -> np.ndarray:
-    from ..io.images import read_mask
     if label is not None:
         return label == obj["obj_id"]
     p = obj.get("mask_visib_path")
@@ -68,7 +69,6 @@ def _orig_visible(task: dict, obj: dict, label: np.ndarray | None, H: int, W: in
 
 def process_frame(worker, config: dict, task: dict) -> dict:
     """Synthesise one frame. ``config``: run-wide settings; ``task``: the frame. Returns the marker dict."""
-    from ..io.images import read_depth_mm, read_label, read_rgb
     t0, c0 = time.perf_counter(), time.process_time()
     split_dir = Path(config["split_dir"])
     sid, iid = int(task["scene_id"]), int(task["im_id"])
@@ -81,7 +81,6 @@ def process_frame(worker, config: dict, task: dict) -> dict:
 
     def skip(reason: str) -> dict:
         marker.update(skipped=reason, scene_gt=[], scene_camera=None, gt_info=[], objects=[])
-        from ..io.atomic import write_json_atomic
         write_json_atomic(mpath, marker)
         return marker
 

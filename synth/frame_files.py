@@ -8,6 +8,7 @@ import errno
 import os
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ..errors import YcbvssError
@@ -17,7 +18,6 @@ PNG_PARAMS = None
 
 
 def _png_params():
-    import cv2
     return [cv2.IMWRITE_PNG_COMPRESSION, 3]
 
 
@@ -42,7 +42,6 @@ class FrameFiles:
 
     def png(self, path, image: np.ndarray) -> None:
         """PNG (uint8/uint16; 3-channel input is RGB)."""
-        import cv2
         path = Path(path)
         tmp = self._tmp(path)
         self._pending.append((tmp, path))

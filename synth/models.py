@@ -6,6 +6,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import trimesh
+
+from ..io.bop import write_models
+from ..io.mesh import load_geometry_mm
 
 
 def bbox_center_mm(vertices_mm: np.ndarray) -> np.ndarray:
@@ -43,7 +47,6 @@ def centred_mesh(model, c_mm: np.ndarray, scale: float = 1.0):
 
 def write_dilated_models(models_dir: str | Path, models: dict, centres: dict, scales: dict) -> dict:
     """Write obj_XXXXXX.ply (+ .png texture) and models_info.json of the enlarged models."""
-    from ..io.bop import write_models
     meshes, syms = {}, {}
     for oid in sorted(scales):
         m = models[oid]
@@ -54,12 +57,9 @@ def write_dilated_models(models_dir: str | Path, models: dict, centres: dict, sc
 
 def write_original_models(models_dir: str | Path, models: dict, centres: dict) -> dict:
     """models_original/: the input models recentred (same frame as models/), NOT enlarged, geometry only."""
-    import trimesh
-    from ..io.bop import write_models
     meshes, syms = {}, {}
     for oid in sorted(centres):
         m = models[oid]
-        from ..io.mesh import load_geometry_mm
         g = load_geometry_mm(m.path, m.unit_scale) if m.path is not None else m.mesh
         meshes[oid] = trimesh.Trimesh(np.asarray(g.vertices, np.float64) - np.asarray(centres[oid], np.float64),
                                       np.asarray(g.faces), process=False)

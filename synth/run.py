@@ -13,19 +13,24 @@ import json
 import sys
 import warnings
 from dataclasses import dataclass, field
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
 from ..errors import YcbvssError
-from ..io.atomic import read_json, write_json_atomic
+from ..io.atomic import read_json, write_json_atomic, write_text_atomic
+from ..io.bop_dataset import targets_filename, write_camera_files, write_models_eval, write_targets
+from ..io.results import read_bop19_csv
+from ..progress import progress
 from .coverage import SCALE_GRID, TARGET, choose_scale
+from .executors import COVERAGE_FUNC, make_executor
 from .frame import marker_path
-from .inputs import open_input
 from .frame_files import clean_temporaries
-from .models import bbox_center_mm, recentre_pose, write_dilated_models, write_original_models
+from .inputs import open_input
+from .models import bbox_center_mm, centred_mesh, recentre_pose, write_dilated_models, write_original_models
 from .noise import NoiseParams
-from ..io.bop_dataset import targets_filename
 
 STATE_DIR = ".synth_state"
 
@@ -69,7 +74,6 @@ def load_pose_overrides(path: str | Path | None, obj_ids) -> dict:
     """(scene_id, im_id, obj_id) -> T_m2c (mm, recentred BOP model frame) from a BOP19 CSV (best score)."""
     if path is None:
         return {}
-    from ..io.results import read_bop19_csv
     best: dict = {}
     for e in read_bop19_csv(path, obj_ids):
         k = (e.scene_id, e.im_id, e.obj_id)
@@ -113,9 +117,6 @@ def compute_coverage(ds, layout: str, scene_loader, overrides: dict, opts: Synth
     """One streaming pass over the selected frames (in the executor's workers): the objects present, their model
     centres, and per object the visible pixel total and covered counts at scale 1.0 and each grid scale.
     Returns (coverage, centres)."""
-    from ..progress import progress
-    from .executors import COVERAGE_FUNC
-    from .models import centred_mesh
     scales = (1.0,) + tuple(opts.scale_grid)
     acc: dict = {}
     centres: dict = {}
@@ -177,8 +178,6 @@ def assemble_scene(split_dir: Path, scene_id: int) -> dict:
 
 
 def _versions() -> dict:
-    from importlib.metadata import PackageNotFoundError, version
-    from .. import __version__
     try:
         bpy_v = version("bpy")
     except PackageNotFoundError:
@@ -263,7 +262,6 @@ def build_report(inputs: dict, opts: SynthOptions, models_state: dict, acc: Repo
 
 def dataset_info_md(split: str, scales: dict, models: dict) -> str:
     """dataset_info.md of a YCBV-SS root: which models are dilated and which the GT refers to."""
-    from .. import __version__
     rows = "\n".join(f"| {o} | {models[o].name} | {scales.get(o, 1.0):g} | "
                       f"{'yes' if scales.get(o, 1.0) != 1.0 else 'no (not rendered)' if o not in scales else 'no'} |"
                       for o in sorted(models))
@@ -282,8 +280,6 @@ def dataset_info_md(split: str, scales: dict, models: dict) -> str:
 
 def write_dataset_files(out: Path, split: str, scales: dict, models: dict) -> None:
     """Camera files, the split's targets, models_eval/ and dataset_info.md (see ycbvss.io.bop_dataset)."""
-    from ..io.atomic import write_text_atomic
-    from ..io.bop_dataset import write_camera_files, write_models_eval, write_targets
     write_camera_files(out)
     write_targets(out, split)
     write_models_eval(out, show_progress=False)
@@ -300,7 +296,6 @@ def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int
 
     ``executor``: a :class:`~ycbvss.synth.executors.LocalExecutor` / ``RayExecutor`` to use (not closed here);
     default: one made from ``opts`` (closed at the end)."""
-    from .executors import make_executor
     opts = opts or SynthOptions()
     out = Path(out)
     ds, layout, scene_loader = open_input(dataset, split, scenes)     # input errors before --out is created
@@ -318,7 +313,6 @@ def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int
 
 
 def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: SynthOptions, ex) -> dict:
-    from ..progress import progress
     split_dir = out / split
     clean_temporaries(out)
     overrides = load_pose_overrides(poses, ds.models.keys())

@@ -177,6 +177,7 @@ def _print_summary(summary: dict, what: str, stages=None) -> None:
 
 
 def _validate(args) -> int:
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from .validate import Stages, ValidateOptions, run_validate
     if not args.dataset.exists():
         raise YcbvssError("dataset not found", args.dataset)
@@ -194,6 +195,7 @@ def _validate(args) -> int:
 
 
 def _validate_suite(args) -> int:
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from .suite_run import run_suite
 
     def names(s: str) -> tuple[str, ...]:
@@ -217,6 +219,7 @@ def _validate_suite(args) -> int:
 
 
 def _demo(args) -> int:
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from .demo import DemoOptions, run_demo
     from .validate import Stages
     opts = DemoOptions(out=args.out, quick=args.quick, frames=args.frames, width=args.width, seed=args.seed,

@@ -28,12 +28,15 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
 from ..errors import YcbvssError, where as fmt_where
+from ..gt_info import compute_gt_info
 from ..io.atomic import atomic_path, read_json, write_json_atomic, write_text_atomic
 from ..io.bop import BopSceneWriter, load_dataset, read_scene_camera, read_scene_gt
 from ..io.bop_dataset import write_camera_files, write_models_eval, write_targets
 from ..io.results import Estimate, write_bop19_csv
 from ..progress import progress
+from ..render import Renderer
 from ..scene import Instance
 
 
@@ -85,7 +88,6 @@ def _refined_scene(refine_dir: Path, split: str, sid: int):
 
 
 def dataset_info_md(source: Path, split: str, refine_dir: Path, counts: dict, copy: bool) -> str:
-    from .. import __version__
     src_info = source / "dataset_info.md"
     return (f"# Refined BOP dataset (ycbvss {__version__}, `ycbvss export`)\n\n"
             f"- source dataset: `{source.resolve()}`, split `{split}`\n"
@@ -105,7 +107,6 @@ def dataset_info_md(source: Path, split: str, refine_dir: Path, counts: dict, co
 def export_refined(dataset: str | Path, split: str, refined: str | Path, out: str | Path, copy: bool = False,
                    scenes=None, delta_mm: float = 15.0, show_progress: bool = True) -> dict:
     """Write the refined BOP dataset (see module docstring); returns a summary dict."""
-    from ..gt_info import compute_gt_info
     t0 = time.perf_counter()
     src, refine_dir, out = Path(dataset), Path(refined), Path(out)
     if not refine_dir.is_dir():
@@ -123,7 +124,6 @@ def export_refined(dataset: str | Path, split: str, refined: str | Path, out: st
     _place_models(src / "models", out / "models", copy)
     if (src / "models_original").is_dir():
         _place_models(src / "models_original", out / "models_original", copy)
-    from ..render import Renderer
     renderer = Renderer()
     counts = {"refined": 0, "kept": 0, "status": {}, "cams_refined": 0, "cams_kept": 0, "frames": 0}
     n_frames = sum(1 for _ in ds.scene_ids)

@@ -30,13 +30,15 @@ def register(sub) -> None:
 
 
 def _scenes(text):
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.ycbv import parse_videos
     return parse_videos(text, "scene list")
 
 
 def _run_export(args: argparse.Namespace) -> int:
-    from .export import export_refined
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.bop_dataset import resolve_split
+    from .export import export_refined
     args.split = resolve_split(args.dataset, args.split)
     r = export_refined(args.dataset, args.split, args.refined, args.out, copy=args.copy, scenes=_scenes(args.scenes))
     print(f"exported {len(r['scenes'])} scenes, {r['frames']} frames: {r['refined']} refined poses, {r['kept']} "
@@ -46,8 +48,9 @@ def _run_export(args: argparse.Namespace) -> int:
 
 
 def _run_gt(args: argparse.Namespace) -> int:
-    from .export import write_gt_csv
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.bop_dataset import resolve_split
+    from .export import write_gt_csv
     args.split = resolve_split(args.dataset, args.split)
     n = write_gt_csv(args.dataset, args.split, args.out, scenes=_scenes(args.scenes))
     print(f"wrote {n} GT poses of split {args.split} to {args.out}")

@@ -7,14 +7,19 @@ import base64
 import datetime as _dt
 import html
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
+from ..eval.curves import plot_curves
+from ..eval.tables import Row, Table, _fmt, ablation_table, error_table, to_markdown, write_table
 from ..io.atomic import write_json_atomic, write_text_atomic
-
-ERR5 = ("tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px")
+from ..io.images import read_rgb
+from ..io.results import Estimate, write_bop19_csv
+from ..progress import progress
+from ..render import Renderer
+from .figures import error_curves_png, overlay_figure, render_instances, write_overlay
+from .pose_sets import ERR5, PAPER_REFERENCE_ROWS, PAPER_TABLE5, means, object_means
 
 
 # ----------------------------------------------------------------------------- tables
@@ -25,8 +30,6 @@ def _vals(row) -> dict:
 def table4(errs_refined: dict, errs_initial: dict | None, models: dict, caption: str,
            reference: bool = True, extra_label: str = "initial"):
     """Paper Table 4 layout (ycbvss.eval.tables.error_table) + "initial" + the paper's reference rows."""
-    from ..eval.tables import Row, error_table
-    from .validate import PAPER_REFERENCE_ROWS, means, object_means
     names = {o: models[o].label.rstrip("*") for o in errs_refined}
     tl = {o: bool(models[o].textureless) for o in errs_refined}
     extra = [(extra_label, means(errs_initial))] if errs_initial is not None else []
@@ -39,8 +42,6 @@ def table4(errs_refined: dict, errs_initial: dict | None, models: dict, caption:
 
 
 def table5(errs: dict, caption: str):
-    from ..eval.tables import Row, ablation_table
-    from .validate import PAPER_TABLE5, means
     order = [v for v in ("w/o f_edge", "w/o f_point", "w/o f_t", "using all") if v in errs]
     t = ablation_table([(v, means(errs[v])) for v in order], caption=caption)
     for i, (label, vals) in enumerate(PAPER_TABLE5):
@@ -50,7 +51,6 @@ def table5(errs: dict, caption: str):
 
 def summary_table(errs: dict, pr):
     """Mean / median ADD(-S) and PRJ per pose set (initial, refined variants)."""
-    from ..eval.tables import Row, Table
     t = Table(["mean ADD (mm)", "median ADD (mm)", "mean PRJ (px)", "median PRJ (px)"],
               label_header="pose set", digits=2,
               caption=f"Initial poses: GT + calibrated random deviation (targets: ADD {pr.target_add_mm:g} mm, "
@@ -70,7 +70,6 @@ def _nanstat(fn, x):
 
 
 def timings_table(stages):
-    from ..eval.tables import Row, Table
     t = Table(["time (s)"], label_header="stage", digits=1)
     for k, v in stages.times.items():
         t.rows.append(Row(k, [v]))
@@ -79,7 +78,6 @@ def timings_table(stages):
 
 
 def table_html(t, title: str = "") -> str:
-    from ..eval.tables import _fmt
     h = ['<table class="res">']
     if title:
         h.append(f"<caption>{html.escape(title)}</caption>")
@@ -100,13 +98,11 @@ def table_html(t, title: str = "") -> str:
 
 
 def write_tables(t, out_dir: Path, stem: str) -> list[Path]:
-    from ..eval.tables import write_table
     return write_table(t, out_dir, stem)
 
 
 def table_text(t) -> str:
     """Markdown without the caption (for the terminal)."""
-    from ..eval.tables import to_markdown
     cap, t.caption = t.caption, ""
     try:
         return to_markdown(t)
@@ -116,7 +112,6 @@ def table_text(t) -> str:
 
 # ----------------------------------------------------------------------------- pose files
 def write_poses_csv(path: Path, poses: dict) -> Path:
-    from ..io.results import Estimate, write_bop19_csv
     ests = [Estimate(int(k[0]), int(k[1]), int(k[2]), 1.0, np.asarray(T)) for k, T in sorted(poses.items())]
     write_bop19_csv(path, ests)
     return path
@@ -138,10 +133,6 @@ def write_errors_csv(path: Path, errs: dict) -> Path:
 def _overlays(out_dir: Path, scenes, models, sets: dict, gt: dict | None, n: int, originals: dict,
               image_label: str, original_label: str = "original") -> list[Path]:
     """Overlay PNGs for ``n`` frames spread over the first scene. ``sets``: name -> pose dict."""
-    from ..io.images import read_rgb
-    from ..progress import progress
-    from ..render import Renderer
-    from .figures import overlay_figure, render_instances, write_overlay
     if n <= 0 or not scenes:
         return []
     sc = scenes[0]
@@ -172,8 +163,6 @@ def _overlays(out_dir: Path, scenes, models, sets: dict, gt: dict | None, n: int
 
 
 def _curves(out_dir: Path, errs: dict, models: dict) -> list[Path]:
-    from ..eval.curves import plot_curves
-    from .figures import error_curves_png
     series = {name: {"add_mm": np.concatenate([v["add_mm"] for v in e.values()]),
                      "prj_px": np.concatenate([v["prj_px"] for v in e.values()])} for name, e in errs.items()}
     init_add = np.nanmean(series["initial"]["add_mm"]) if "initial" in series else 30.0
@@ -245,7 +234,6 @@ def write_html(path: Path, title: str, info: list[tuple[str, str]], sections: li
 # ----------------------------------------------------------------------------- writers
 def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refined, errs, stages, originals,
                              src_layout, errs_kf: dict | None = None) -> dict:
-    from .validate import means
     tdir, fdir, pdir = out / "tables", out / "figures", out / "poses"
     files: list[Path] = []
     n_pairs = len(gt)
@@ -316,8 +304,6 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
 
 
 def write_real_outputs(out: Path, opts, scenes, models, orig, Ks, refined, diff, stages) -> dict:
-    from ..eval.tables import Row, error_table
-    from .validate import PAPER_REFERENCE_ROWS, means, object_means
     tdir, fdir, pdir = out / "tables", out / "figures", out / "poses"
     files: list[Path] = []
     names = {o: models[o].label for o in diff}

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import trimesh
+from scipy.spatial import ConvexHull
 
 from ..camera import Camera
 from ..geometry.se3 import compose, inv_T, make_T, transform_points
@@ -45,7 +46,6 @@ def rest_poses(mesh: trimesh.Trimesh, min_prob: float = 0.08, max_n: int = 3) ->
 
 
 def _hull2d(xy: np.ndarray) -> np.ndarray:
-    from scipy.spatial import ConvexHull
     return xy[ConvexHull(xy).vertices]
 
 

@@ -19,6 +19,8 @@ from collections import OrderedDict
 from collections.abc import Collection, Hashable, Sequence
 from dataclasses import dataclass, field
 
+import cv2
+import moderngl
 import numpy as np
 
 from ..camera import check_K
@@ -26,8 +28,15 @@ from ..errors import YcbvssError
 from .context import get_context
 from .projection import FRONT_FACE, projection_from_K
 from .shaders import sources
-from .texture import (first_use_order, is_closed_outward, merge_coincident, mesh_texture, mesh_vertex_colors,
-                      smooth_vertex_normals, spatial_order)
+from .texture import (
+    first_use_order,
+    is_closed_outward,
+    merge_coincident,
+    mesh_texture,
+    mesh_vertex_colors,
+    smooth_vertex_normals,
+    spatial_order,
+)
 
 OUTPUTS = ("depth", "instance", "normal", "color", "mask_all")
 GREY = 0.6
@@ -212,9 +221,6 @@ class Renderer:
             self._white = None
 
     def _upload_texture(self, image: np.ndarray):
-        import cv2
-        import moderngl
-
         H, W = image.shape[:2]
         s = self.max_texture_px / max(H, W)
         if s < 1.0:
@@ -379,8 +385,6 @@ class Renderer:
         return float(np.linalg.norm(mv[:3, :3] @ g.centre + mv[:3, 3])) < g.radius * scale + znear_mm
 
     def _draw(self, P, width, height, items, mvs, rots, which, with_color, with_normal, shade, read) -> dict:
-        import moderngl
-
         ctx = self.ctx
         fb = self._fbo(width, height, with_color, with_normal)
         fbo = fb["fbo"]
