@@ -26,7 +26,7 @@ VIEW_T_SIGMA_MM, VIEW_R_SIGMA_DEG = (1.0, 1.0, 24.0), 0.7
 def make(seed: int, frames: int, width: int, arc_deg: float):
     from ycbvss.procedural.render import render_frame_fast
     from ycbvss.procedural.scene import make_scene
-    from ycbvss.refine.accuracy import deviate_scene
+    from ycbvss.refine.deviation import deviate_scene
 
     ps = make_scene(seed=seed, n_frames=frames, width=width, height=width * 3 // 4, arc_deg=arc_deg)
     imgs = {f.im_id: render_frame_fast(ps, f, noise_sigma=1.5)[0] for f in ps.frames}
@@ -37,15 +37,19 @@ def make(seed: int, frames: int, width: int, arc_deg: float):
     return ps, imgs, gt, init
 
 
+# table column -> ycbvss.eval.metrics error key
+TABLE_KEYS = {"tx": "tx_mm", "ty": "ty_mm", "tz": "tz_mm", "R": "r_deg", "PRJ": "prj_px", "ADD": "add_mm"}
+
+
 def errors(ps, poses, gt):
-    from ycbvss.refine.accuracy import pose_errors
+    from ycbvss.eval.metrics import pose_errors_4x4
 
     K = ps.frames[0].camera.K
     out = {}
     for o, m in ps.models.items():
         pts = np.asarray(m.mesh.vertices)[:: max(1, len(m.mesh.vertices) // 1000)]
-        e = [pose_errors(poses[k], gt[k], pts, K) for k in gt if k[1] == o]
-        out[o] = {k: float(np.mean([x[k] for x in e])) for k in e[0]}
+        e = [pose_errors_4x4(poses[k], gt[k], K, pts) for k in gt if k[1] == o]
+        out[o] = {c: float(np.mean([x[k] for x in e])) for c, k in TABLE_KEYS.items()}
     return out
 
 

@@ -26,8 +26,8 @@ class ModelPoints:
 
     ``k``: candidates per point for the scipy fast path (0 disables it). ``workers``: threads for
     KD-tree queries (-1 = all cores). ``backend``: "numba" (compiled kernel, all cores),
-    "scipy" (BLAS candidate path + cKDTree) or "auto" (numba when it imports). ``grid``: with
-    numba, answer uncertified queries from an exact voxel grid (:mod:`ycbvss.eval.nn_grid`) when
+    "scipy" (BLAS candidate path + cKDTree; the independent reference) or "auto" (= numba).
+    ``grid``: with numba, answer uncertified queries from an exact voxel grid (:mod:`ycbvss.eval.nn_grid`) when
     a call has many of them (large, tracker-level errors); same numbers."""
 
     def __init__(self, points: np.ndarray, k: int = 16, workers: int = -1, backend: str = "auto",
@@ -46,12 +46,7 @@ class ModelPoints:
         self.grid = bool(grid)
         if backend not in ("auto", "numba", "scipy"):
             raise ValueError(f"unknown backend {backend!r}")
-        if backend != "scipy" and compiled_kernel() is not None:
-            self.backend = "numba"
-        elif backend == "numba":
-            raise ImportError("backend='numba' needs the numba package")
-        else:
-            self.backend = "scipy"
+        self.backend = "scipy" if backend == "scipy" else "numba"
         self.stats = {"certified": 0, "tree": 0}   # point queries answered by each path
 
     @property
@@ -121,13 +116,13 @@ class ModelPoints:
 
     def _grid_data(self):
         if self._grid is None:
-            # lazy: compiled (numba) module
+            # lazy: numba kernels compile/load on import
             from .nn_grid import build_grid
             self._grid = build_grid(self._numba_data()[0])
         return self._grid
 
     def _add_adds_grid(self, A, b):
-        # lazy: compiled (numba) module
+        # lazy: numba kernels compile/load on import
         from .nn_grid import add_adds_grid_kernel
         tp, tpT, cand, rho, lo, hi, child, span, depth = self._numba_data()
         add, adds, n_grid, n_tree = add_adds_grid_kernel(tp, A, b, True, cand, rho, tpT, lo, hi, child, span,
@@ -204,7 +199,7 @@ class ModelPoints:
 # transforms, computes ADD and answers every ADD-S nearest-neighbour query of a batch of poses
 # (prange over poses). Each query starts with the bound ||y_i - x_i|| (x_i itself is a model
 # point), descends nearer child first and prunes nodes whose box is farther than the best so far:
-# exact nearest neighbour, no approximation. Used when numba imports; otherwise the scipy path.
+# exact nearest neighbour, no approximation. The default backend; the scipy path is the reference.
 
 def build_kdtree(points: np.ndarray, leafsize: int = 8):
     """Balanced KD-tree (median split on the widest axis) as flat arrays:
@@ -238,19 +233,12 @@ def build_kdtree(points: np.ndarray, leafsize: int = 8):
 
 
 def compiled_kernel():
-    """The numba ADD/ADD-S kernel (:mod:`ycbvss.eval.nn_kernel`), or None when numba is missing."""
-    global _KERNEL
-    if _KERNEL is None:
-        try:
-            # lazy: numba kernels compile/load on import
-            from .nn_kernel import add_adds_kernel
-            _KERNEL = add_adds_kernel
-        except ImportError:
-            _KERNEL = False
-    return _KERNEL or None
+    """The numba ADD/ADD-S kernel (:mod:`ycbvss.eval.nn_kernel`), imported on first use."""
+    # lazy: numba kernels compile/load on import
+    from .nn_kernel import add_adds_kernel
+    return add_adds_kernel
 
 
-_KERNEL = None
 GRID_MIN_QUERIES = 4_000_000   # uncertified ADD-S queries in one call from which the exact voxel grid pays off
 GRID_PROBE_POSES = 32          # poses run through the KD-tree kernel first to measure the uncertified fraction
 NB_LEAFSIZE = 64         # leaf size of the numba KD-tree: measured 8..128 on 5000-point models, 32-64 best

@@ -1,6 +1,6 @@
 """Compiled (numba) kernels of the pose-error metrics; imported lazily by
-:func:`ycbvss.eval.model_points.compiled_kernel` (the scipy/numpy paths are used when numba is
-missing). Module-level functions so numba's on-disk cache (``cache=True``) works.
+:func:`ycbvss.eval.model_points.compiled_kernel` and :func:`ycbvss.eval.metrics.prj_px` (numba is a
+required dependency; the import is deferred for its start-up cost). Module-level functions so numba's on-disk cache (``cache=True``) works.
 
 - :func:`add_adds_kernel` ADD and exact ADD-S of a batch of relative transforms against ONE
   object's KD-tree (built once in the model frame, see ``model_points.build_kdtree``): per point
