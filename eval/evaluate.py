@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import YcbvssError
+from ..geometry.symmetry import closest_symmetric_gt, continuous_steps, symmetry_transforms
 from ..io.bop import read_scene_camera, read_scene_gt, select_scene_ids
 from ..progress import progress
 from .matching import match
 from .metrics import ERROR_KEYS, pose_errors
 from .model_points import ModelPoints
 from .scores import ADD_BOUND_MM, PRJ_BOUND_PX, object_scores, overall_scores
-from .symmetry import closest_symmetric_gt, model_symmetry_transforms
 
 
 @dataclass
@@ -218,7 +218,7 @@ def evaluate_arrays(gt: GtArrays, est: EstArrays, models: dict, options: EvalOpt
         Rg, tg = gt.R[gi], gt.t[gi]
         mp = mp_of(o, opt.nn_k)
         if opt.use_symmetries:
-            syms = model_symmetry_transforms(models[o], opt.sym_step_frac)
+            syms = symmetry_transforms(models[o], continuous_steps(opt.sym_step_frac))
             Rg, tg, _ = closest_symmetric_gt(est.R[ei], est.t[ei], Rg, tg, syms, mp.points)
         with_adds = opt.adds_for == "all" or o in sym_ids
         e = pose_errors(est.R[ei], est.t[ei], Rg, tg, gt.K[gi], mp, with_adds=with_adds)

@@ -8,7 +8,7 @@ import pytest
 from ycbvss.eval.metrics import add_mm, adds_mm, pose_errors, prj_px, re_deg, te_axes_mm, te_mm
 from ycbvss.eval.model_points import ModelPoints
 from ycbvss.eval.reference import errors_loop
-from ycbvss.eval.symmetry import closest_symmetric_gt, symmetry_transforms
+from ycbvss.geometry.symmetry import closest_symmetric_gt, continuous_steps, symmetry_group
 from ycbvss.geometry.so3 import exp_so3
 
 K = np.array([[1066.778, 0.0, 312.9869], [0.0, 1067.487, 241.3109], [0.0, 0.0, 1.0]])
@@ -122,14 +122,14 @@ def test_symmetry_transforms_and_closest_gt():
     # discrete 180 deg about z
     S = np.eye(4)
     S[:3, :3] = exp_so3(np.array([0, 0, np.pi]))
-    syms = symmetry_transforms([S.reshape(-1).tolist()], None, 150.0)
+    syms = symmetry_group([S.reshape(-1).tolist()], None, continuous_steps(0.01))
     assert syms.shape == (2, 4, 4)
     Rg, tg = exp_so3(np.array([0.5, 0.1, -0.3])), np.array([0.0, 0, 600])
     Re = Rg @ S[:3, :3]                                   # the estimate is the symmetric twin
     Rn, tn, idx = closest_symmetric_gt(Re[None], tg[None], Rg[None], tg[None], syms, pts)
     assert idx[0] == 1 and re_deg(Re, Rn[0]) < 1e-6 and np.abs(tn[0] - tg).max() < 1e-9
     # continuous symmetry about z through an offset: sampled every 360/315 deg
-    cs = symmetry_transforms(None, [{"axis": [0, 0, 1], "offset": [5.0, 0, 0]}], 150.0)
+    cs = symmetry_group(None, [{"axis": [0, 0, 1], "offset": [5.0, 0, 0]}], continuous_steps(0.01))
     assert len(cs) == 315
     Rz = exp_so3(np.array([0, 0, np.radians(33.0)]))
     off = np.array([5.0, 0, 0])
