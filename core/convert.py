@@ -26,13 +26,14 @@ import numpy as np
 
 from . import __version__
 from .errors import YcbvssError, where as fmt_where
+from .geometry.model_frame import recentre_pose
 from .gt_info import compute_gt_info
 from .io.atomic import read_json, write_json_atomic, write_text_atomic
 from .io.bop import BopSceneWriter, load_models_info, model_filename
 from .io.bop_dataset import write_camera_files, write_models_eval, write_targets
 from .io.images import read_depth_mm
 from .io.mesh import compute_models_info, load_textured_mm, load_vertices_mm, write_ply_mm
-from .io.ycbv import list_frames, load_ycbv_dataset
+from .io.ycbv import list_frames, load_ycbv_dataset, model_center_mm
 from .manifest import bop_symmetries
 from .progress import progress
 from .render import Renderer
@@ -53,31 +54,15 @@ def default_split(video: int) -> str:
     return "test" if video in TEST_VIDEOS else "train_real"
 
 
-def ycbv_to_bop_pose(T_m2c_mm: np.ndarray, c_mm: np.ndarray) -> np.ndarray:
-    """YCB-Video model-frame pose (mm) -> BOP model-frame pose: t' = t + R c (all mm)."""
-    T = np.array(T_m2c_mm, dtype=np.float64)
-    T[:3, 3] = T[:3, 3] + T[:3, :3] @ np.asarray(c_mm, np.float64)
-    return T
-
-
-def bop_to_ycbv_pose(T_bop_mm: np.ndarray, c_mm: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`ycbv_to_bop_pose`: t = t' - R c."""
-    T = np.array(T_bop_mm, dtype=np.float64)
-    T[:3, 3] = T[:3, 3] - T[:3, :3] @ np.asarray(c_mm, np.float64)
-    return T
-
-
-def _bop_mesh_from_obj(model: ObjectModel, texture_max_px: int | None = None):
-    """Load a YCB-V textured.obj, return (mesh recentred in mm, c_mm, texture RGB | None)."""
-    v = load_vertices_mm(model.path, 1000.0)
-    c_mm = (v.min(axis=0) + v.max(axis=0)) / 2
+def _bop_mesh_from_obj(model: ObjectModel, c_mm: np.ndarray, texture_max_px: int | None = None):
+    """Load a YCB-V textured.obj, return (mesh recentred on ``c_mm``, in mm; texture RGB | None)."""
     mesh, tex = load_textured_mm(model.path, 1000.0)
     mesh.vertices = np.asarray(mesh.vertices, np.float64) - c_mm
     if tex is not None and texture_max_px and max(tex.shape[:2]) > texture_max_px:
         s = texture_max_px / max(tex.shape[:2])
         tex = cv2.resize(tex, (max(1, round(tex.shape[1] * s)), max(1, round(tex.shape[0] * s))),
                          interpolation=cv2.INTER_AREA)
-    return mesh, c_mm, tex
+    return mesh, tex
 
 
 def convert_models(ycbv_models: dict[int, ObjectModel], models_dir: Path, overwrite: bool = False,
@@ -105,11 +90,10 @@ def convert_models(ycbv_models: dict[int, ObjectModel], models_dir: Path, overwr
         src = ycbv_models[oid]
         ply = models_dir / model_filename(oid)
         png = models_dir / f"obj_{oid:06d}.png"
-        v_src = load_vertices_mm(src.path, 1000.0)
-        c_mm = (v_src.min(axis=0) + v_src.max(axis=0)) / 2
+        c_mm = model_center_mm(src.path)           # cached with the model's diameter: the OBJ is not read again
         disc, cont = bop_symmetries(oid)
         if overwrite or not (ply.is_file() and png.is_file()):
-            mesh, c_mm, tex = _bop_mesh_from_obj(src, texture_max_px)
+            mesh, tex = _bop_mesh_from_obj(src, c_mm, texture_max_px)
             write_ply_mm(ply, mesh, png.name if tex is not None else None, texture_rgb=tex)
         info = compute_models_info(load_vertices_mm(ply), disc, cont)   # from the stored float32 vertices
         m = ObjectModel(obj_id=oid, path=ply, name=src.name, unit_scale=1.0, diameter_mm=info["diameter"],
@@ -198,7 +182,7 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
         if renderer is None:
             renderer = Renderer()
         for f in scene.frames:
-            insts = [Instance(obj_id=i.obj_id, T_m2c=ycbv_to_bop_pose(i.T_m2c, centers[i.obj_id]), gt_id=i.gt_id)
+            insts = [Instance(obj_id=i.obj_id, T_m2c=recentre_pose(i.T_m2c, centers[i.obj_id]), gt_id=i.gt_id)
                      for i in f.instances]
             fb = Frame(scene_id=v, im_id=f.im_id, camera=f.camera, instances=insts, depth_scale=f.depth_scale,
                        T_w2c=f.T_w2c)

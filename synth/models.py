@@ -12,18 +12,6 @@ from ..io.bop import write_models
 from ..io.mesh import load_geometry_mm
 
 
-def bbox_center_mm(vertices_mm: np.ndarray) -> np.ndarray:
-    v = np.asarray(vertices_mm, np.float64)
-    return (v.min(axis=0) + v.max(axis=0)) / 2.0
-
-
-def recentre_pose(T_m2c: np.ndarray, c_mm: np.ndarray) -> np.ndarray:
-    """Pose of the model recentred by ``X_c = X - c``: ``t' = t + R c``."""
-    T = np.array(T_m2c, np.float64, copy=True)
-    T[:3, 3] = T[:3, 3] + T[:3, :3] @ np.asarray(c_mm, np.float64)
-    return T
-
-
 def transform_symmetries(disc: list, cont: list, c_mm: np.ndarray, scale: float) -> tuple[list, list]:
     """Symmetries of the input model frame -> recentred (by c) and scaled (by s) frame."""
     c = np.asarray(c_mm, np.float64)

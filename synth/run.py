@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import YcbvssError
+from ..geometry.model_frame import bbox_center, recentre_pose
 from ..io.atomic import read_json, write_json_atomic, write_text_atomic
 from ..io.bop_dataset import targets_filename, write_camera_files, write_models_eval, write_targets
 from ..io.results import read_bop19_csv
@@ -29,7 +30,7 @@ from .executors import COVERAGE_FUNC, make_executor
 from .frame import marker_path
 from .frame_files import clean_temporaries
 from .inputs import open_input
-from .models import bbox_center_mm, centred_mesh, recentre_pose, write_dilated_models, write_original_models
+from .models import centred_mesh, write_dilated_models, write_original_models
 from .noise import NoiseParams
 
 STATE_DIR = ".synth_state"
@@ -129,7 +130,7 @@ def compute_coverage(ds, layout: str, scene_loader, overrides: dict, opts: Synth
             if oid not in ds.models:
                 raise YcbvssError(f"object {oid}: no model", ds.root / "models")
             m = ds.models[oid]
-            centres[oid] = bbox_center_mm(m.vertices_mm)
+            centres[oid] = bbox_center(m.vertices_mm)
             with warnings.catch_warnings(record=True) as caught:   # e.g. texture missing -> grey model
                 warnings.simplefilter("always")
                 centred_mesh(m, centres[oid])
@@ -385,7 +386,7 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
     mstate = state_dir / f"models_{mkey}.done"
     if not mstate.is_file() or not (models_dir / "models_info.json").is_file():
         # every model of the input: the rendered objects enlarged, the others at scale 1 (never rendered)
-        others = {o: bbox_center_mm(ds.models[o].vertices_mm) for o in sorted(set(ds.models) - set(all_scales))}
+        others = {o: bbox_center(ds.models[o].vertices_mm) for o in sorted(set(ds.models) - set(all_scales))}
         write_dilated_models(models_dir, ds.models, {**others, **all_centres},
                              {**{o: 1.0 for o in others}, **all_scales})
         write_original_models(out / "models_original", ds.models, {**others, **all_centres})

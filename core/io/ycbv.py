@@ -28,6 +28,7 @@ import scipy.io
 
 from ..camera import Camera, check_K
 from ..errors import YcbvssError, where as fmt_where
+from ..geometry.model_frame import bbox_center
 from ..geometry.so3 import orthonormality_error
 from ..manifest import bop_symmetries, camera_for_video, object_entries, object_names, protocol_symmetric_ids
 from ..scene import Dataset, Frame, Instance, ObjectModel, Scene
@@ -85,13 +86,6 @@ def parse_videos(spec: str | Iterable[int] | None, what: str = "video list") -> 
     return sorted(out)
 
 
-@lru_cache(maxsize=64)
-def _obj_center_m(path: str) -> tuple[float, float, float]:
-    v = load_vertices_mm(path, 1.0)
-    c = (v.min(axis=0) + v.max(axis=0)) / 2
-    return tuple(float(x) for x in c)
-
-
 def _stamp(path: Path) -> tuple[int, int]:
     st = path.stat()
     return st.st_mtime_ns, st.st_size
@@ -101,13 +95,13 @@ def _stamp(path: Path) -> tuple[int, int]:
 def _model_stats(path: str, mtime_ns: int, size: int) -> tuple[float, tuple[float, float, float]]:
     """(diameter mm, bbox centre mm) of a textured.obj in metres; cached per file version."""
     v = load_vertices_mm(path, 1000.0)
-    c = (v.min(axis=0) + v.max(axis=0)) / 2
-    return diameter_mm(v), tuple(float(x) for x in c)
+    return diameter_mm(v), tuple(float(x) for x in bbox_center(v))
 
 
-def model_center_m(obj_path: str | Path) -> np.ndarray:
-    """Bounding-box centre c (metres) of a YCB-Video textured.obj: the BOP model origin."""
-    return np.array(_obj_center_m(str(Path(obj_path).resolve())))
+def model_center_mm(obj_path: str | Path) -> np.ndarray:
+    """Bounding-box centre c (mm) of a YCB-Video textured.obj: the BOP model origin (cached)."""
+    path = Path(obj_path).resolve()
+    return np.array(_model_stats(str(path), *_stamp(path))[1])
 
 
 def _ycbv_symmetries(obj_id: int, c_mm: np.ndarray) -> tuple[list, list]:
