@@ -21,7 +21,7 @@ from ..progress import progress
 from .matching import match
 from .metrics import ERROR_KEYS, pose_errors
 from .model_points import ModelPoints
-from .scores import ADD_BOUND_MM, PRJ_BOUND_PX, object_scores, overall_scores
+from .scores import ADD_BOUND_MM, PRJ_BOUND_PX, mean_finite, object_scores, overall_scores
 
 
 @dataclass
@@ -236,7 +236,7 @@ def evaluate_arrays(gt: GtArrays, est: EstArrays, models: dict, options: EvalOpt
     names = {o: getattr(models[o], "label", str(o)) for o in obj_ids}
     textureless = {o: bool(getattr(models[o], "textureless", False)) for o in obj_ids}
     overall = overall_scores(per_object)
-    all_means = {f"mean_{k}": _nanmean(err[k]) for k in
+    all_means = {f"mean_{k}": mean_finite(err[k]) for k in
                  ("tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "adds_mm", "add_s_mm")}
     summary = {
         **overall,
@@ -250,12 +250,6 @@ def evaluate_arrays(gt: GtArrays, est: EstArrays, models: dict, options: EvalOpt
         "options": {**asdict(opt), "symmetric_obj_ids": sorted(sym_ids)},
     }
     return EvalResult(err, per_object, summary, names, textureless)
-
-
-def _nanmean(x) -> float:
-    x = np.asarray(x, dtype=np.float64)
-    x = x[np.isfinite(x)]
-    return float(x.mean()) if x.size else float("nan")
 
 
 def evaluate(dataset, estimates, options: EvalOptions | None = None, scene_ids=None) -> EvalResult:

@@ -122,11 +122,9 @@ class ModelPoints:
         return self._grid
 
     def _add_adds_grid(self, A, b):
-        # lazy: numba kernels compile/load on import
-        from .nn_grid import add_adds_grid_kernel
         tp, tpT, cand, rho, lo, hi, child, span, depth = self._numba_data()
-        add, adds, n_grid, n_tree = add_adds_grid_kernel(tp, A, b, True, cand, rho, tpT, lo, hi, child, span,
-                                                         depth, *self._grid_data())
+        add, adds, n_grid, n_tree = compiled_kernel()(tp, A, b, True, cand, rho, tpT, lo, hi, child, span,
+                                                      depth, *self._grid_data())
         ng, nt = int(n_grid.sum()), int(n_tree.sum())
         self.stats["grid"] = self.stats.get("grid", 0) + ng
         self.stats["tree"] += nt
@@ -157,8 +155,8 @@ class ModelPoints:
         if len(A) == 0:
             self._last_tree = 0
             return np.empty(0), (np.empty(0) if with_adds else None)
-        add, adds, n_tree = compiled_kernel()(tp, A, b, bool(with_adds), cand, rho, tpT, lo, hi, child, span,
-                                              depth)
+        add, adds, _, n_tree = compiled_kernel()(tp, A, b, bool(with_adds), cand, rho, tpT, lo, hi, child, span,
+                                                 depth, *no_grid())
         if not with_adds:
             return add, None
         nt = int(n_tree.sum())
@@ -237,6 +235,13 @@ def compiled_kernel():
     # lazy: numba kernels compile/load on import
     from .nn_kernel import add_adds_kernel
     return add_adds_kernel
+
+
+def no_grid() -> tuple:
+    """The kernel's grid arguments that switch the grid off."""
+    # lazy: numba kernels compile/load on import
+    from .nn_kernel import NO_GRID
+    return NO_GRID
 
 
 GRID_MIN_QUERIES = 4_000_000   # uncertified ADD-S queries in one call from which the exact voxel grid pays off

@@ -13,9 +13,9 @@ entry with ``|p - c| - |y - c| > best`` cannot be nearer than the best distance 
 So the answer is exact (equal to a brute-force search up to rounding of the final distance).
 
 Cells farther than the shell from the surface, and cells whose list would exceed ``max_list``
-points, get no list: queries there fall back to the KD-tree (:mod:`ycbvss.eval.nn_kernel`).
-Compiled with numba (imported lazily by :class:`ycbvss.eval.model_points.ModelPoints`, which uses
-the grid for large ADD-S batches only: its build costs about 1.5 s for an 8k-vertex model).
+points, get no list: queries there fall back to the KD-tree (:func:`ycbvss.eval.nn_kernel.add_adds_kernel`
+queries the grid with :func:`grid_nn2`). Compiled with numba (imported lazily by
+:class:`ycbvss.eval.model_points.ModelPoints`, which uses the grid for large ADD-S batches only: its build costs about 1.5 s for an 8k-vertex model).
 
 Measured (8k-vertex YCB meshes, 400 poses 3 deg / 10, 10, 20 mm off, busy 2-core machine): the
 query part 1.8-2.5x faster than the KD-tree kernel, 97-100 % of the uncertified queries answered
@@ -29,7 +29,19 @@ import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
-from .nn_kernel import _nn2
+
+
+@njit(cache=True, inline="always")
+def _cell_reach(c, origin, s, ny, nz, r):
+    """Cell ``c``'s integer coordinates, its centre (mm), ``r^2`` and the reach in cells ``ceil(r / s)``
+    of a ball of radius ``r`` about the centre."""
+    cz = c % nz
+    cy = (c // nz) % ny
+    cx = c // (ny * nz)
+    x0 = origin[0] + (cx + 0.5) * s
+    x1 = origin[1] + (cy + 0.5) * s
+    x2 = origin[2] + (cz + 0.5) * s
+    return cx, cy, cz, x0, x1, x2, r * r, int(math.ceil(r / s))
 
 
 @njit(cache=True, parallel=True)
@@ -39,15 +51,7 @@ def _count(tp, origin, s, nx, ny, nz, dc, shell, h, eps, bstart, border, max_lis
         counts[c] = 0
         if dc[c] > shell:
             continue
-        cz = c % nz
-        cy = (c // nz) % ny
-        cx = c // (ny * nz)
-        x0 = origin[0] + (cx + 0.5) * s
-        x1 = origin[1] + (cy + 0.5) * s
-        x2 = origin[2] + (cz + 0.5) * s
-        r = dc[c] + 2.0 * h + eps
-        r2 = r * r
-        k = int(math.ceil(r / s))
+        cx, cy, cz, x0, x1, x2, r2, k = _cell_reach(c, origin, s, ny, nz, dc[c] + 2.0 * h + eps)
         n = 0
         for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
             for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
@@ -71,15 +75,7 @@ def _fill(tp, origin, s, nx, ny, nz, dc, h, eps, bstart, border, offsets, gidx, 
         e = offsets[c + 1]
         if e == a:
             continue
-        cz = c % nz
-        cy = (c // nz) % ny
-        cx = c // (ny * nz)
-        x0 = origin[0] + (cx + 0.5) * s
-        x1 = origin[1] + (cy + 0.5) * s
-        x2 = origin[2] + (cz + 0.5) * s
-        r = dc[c] + 2.0 * h + eps
-        r2 = r * r
-        k = int(math.ceil(r / s))
+        cx, cy, cz, x0, x1, x2, r2, k = _cell_reach(c, origin, s, ny, nz, dc[c] + 2.0 * h + eps)
         n = a
         for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
             for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
@@ -173,65 +169,3 @@ def grid_nn2(y0, y1, y2, best, tp, geo, dims, offsets, gidx, gdist):
             best = d
             bd = math.sqrt(best)
     return best
-
-
-@njit(cache=True, parallel=True, fastmath=False)
-def add_adds_grid_kernel(pts, A, b, with_adds, cand, rho, tp, lo, hi, child, span, depth, geo, dims, offsets,
-                         gidx, gdist):
-    """:func:`ycbvss.eval.nn_kernel.add_adds_kernel` with the grid between the certificate and
-    the KD-tree: an uncertified point is answered from its cell's list when it has one.
-    Returns (add, adds, n_grid, n_tree)."""
-    n = A.shape[0]
-    P = pts.shape[0]
-    kc = cand.shape[1]
-    add = np.empty(n)
-    adds = np.empty(n)
-    n_tree = np.zeros(n, np.int64)
-    n_grid = np.zeros(n, np.int64)
-    for j in prange(n):
-        stack_n = np.empty(2 * depth + 4, np.int64)
-        stack_d = np.empty(2 * depth + 4)
-        a00, a01, a02 = A[j, 0, 0], A[j, 0, 1], A[j, 0, 2]
-        a10, a11, a12 = A[j, 1, 0], A[j, 1, 1], A[j, 1, 2]
-        a20, a21, a22 = A[j, 2, 0], A[j, 2, 1], A[j, 2, 2]
-        b0, b1, b2 = b[j, 0], b[j, 1], b[j, 2]
-        sa = 0.0
-        ss = 0.0
-        nt = 0
-        ng = 0
-        for i in range(P):
-            x0, x1, x2 = pts[i, 0], pts[i, 1], pts[i, 2]
-            y0 = a00 * x0 + a01 * x1 + a02 * x2 + b0
-            y1 = a10 * x0 + a11 * x1 + a12 * x2 + b1
-            y2 = a20 * x0 + a21 * x1 + a22 * x2 + b2
-            e0 = y0 - x0
-            e1 = y1 - x1
-            e2 = y2 - x2
-            d2 = e0 * e0 + e1 * e1 + e2 * e2
-            delta = np.sqrt(d2)
-            sa += delta
-            if with_adds:
-                best = d2
-                for q in range(kc):
-                    c = cand[i, q]
-                    e0 = y0 - pts[c, 0]
-                    e1 = y1 - pts[c, 1]
-                    e2 = y2 - pts[c, 2]
-                    d = e0 * e0 + e1 * e1 + e2 * e2
-                    if d < best:
-                        best = d
-                r = rho[i] - delta
-                if r <= 0.0 or best > r * r * (1.0 - 1e-12):
-                    g = grid_nn2(y0, y1, y2, best, pts, geo, dims, offsets, gidx, gdist)
-                    if g >= 0.0:
-                        best = g
-                        ng += 1
-                    else:
-                        best = _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d)
-                        nt += 1
-                ss += np.sqrt(best)
-        add[j] = sa / P
-        adds[j] = ss / P
-        n_tree[j] = nt
-        n_grid[j] = ng
-    return add, adds, n_grid, n_tree
