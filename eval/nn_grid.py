@@ -44,53 +44,57 @@ def _cell_reach(c, origin, s, ny, nz, r):
     return cx, cy, cz, x0, x1, x2, r * r, int(math.ceil(r / s))
 
 
+@njit(cache=True, inline="always")
+def _dist2(y0, y1, y2, pts, p):
+    """Squared distance of ``y`` to the model point ``pts[p]`` (mm^2)."""
+    e0 = y0 - pts[p, 0]
+    e1 = y1 - pts[p, 1]
+    e2 = y2 - pts[p, 2]
+    return e0 * e0 + e1 * e1 + e2 * e2
+
+
+@njit(cache=True)
+def _ball_points(c, tp, origin, s, nx, ny, nz, r, bstart, border, gidx, gdist, n0):
+    """Number of model points within ``r`` (mm) of cell ``c``'s centre, found through the point
+    buckets ``bstart``/``border``; with a non-empty ``gidx`` they are also written (index, distance)
+    at positions ``n0, n0 + 1, ...`` of ``gidx``/``gdist``."""
+    cx, cy, cz, x0, x1, x2, r2, k = _cell_reach(c, origin, s, ny, nz, r)
+    write = gidx.shape[0] > 0
+    n = n0
+    for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
+        for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
+            for iz in range(max(0, cz - k), min(nz, cz + k + 1)):
+                b = (ix * ny + iy) * nz + iz
+                for q in range(bstart[b], bstart[b + 1]):
+                    p = border[q]
+                    d2 = _dist2(x0, x1, x2, tp, p)
+                    if d2 <= r2:
+                        if write:
+                            gidx[n] = p
+                            gdist[n] = math.sqrt(d2)
+                        n += 1
+    return n - n0
+
+
 @njit(cache=True, parallel=True)
 def _count(tp, origin, s, nx, ny, nz, dc, shell, h, eps, bstart, border, max_list, counts):
-    ncell = nx * ny * nz
-    for c in prange(ncell):
+    none_i, none_f = np.zeros(0, np.int64), np.zeros(0)
+    for c in prange(nx * ny * nz):
         counts[c] = 0
         if dc[c] > shell:
             continue
-        cx, cy, cz, x0, x1, x2, r2, k = _cell_reach(c, origin, s, ny, nz, dc[c] + 2.0 * h + eps)
-        n = 0
-        for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
-            for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
-                for iz in range(max(0, cz - k), min(nz, cz + k + 1)):
-                    b = (ix * ny + iy) * nz + iz
-                    for q in range(bstart[b], bstart[b + 1]):
-                        p = border[q]
-                        e0 = tp[p, 0] - x0
-                        e1 = tp[p, 1] - x1
-                        e2 = tp[p, 2] - x2
-                        if e0 * e0 + e1 * e1 + e2 * e2 <= r2:
-                            n += 1
+        n = _ball_points(c, tp, origin, s, nx, ny, nz, dc[c] + 2.0 * h + eps, bstart, border, none_i, none_f, 0)
         counts[c] = n if n <= max_list else 0
 
 
 @njit(cache=True, parallel=True)
 def _fill(tp, origin, s, nx, ny, nz, dc, h, eps, bstart, border, offsets, gidx, gdist):
-    ncell = nx * ny * nz
-    for c in prange(ncell):
+    for c in prange(nx * ny * nz):
         a = offsets[c]
         e = offsets[c + 1]
         if e == a:
             continue
-        cx, cy, cz, x0, x1, x2, r2, k = _cell_reach(c, origin, s, ny, nz, dc[c] + 2.0 * h + eps)
-        n = a
-        for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
-            for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
-                for iz in range(max(0, cz - k), min(nz, cz + k + 1)):
-                    b = (ix * ny + iy) * nz + iz
-                    for q in range(bstart[b], bstart[b + 1]):
-                        p = border[q]
-                        e0 = tp[p, 0] - x0
-                        e1 = tp[p, 1] - x1
-                        e2 = tp[p, 2] - x2
-                        d2 = e0 * e0 + e1 * e1 + e2 * e2
-                        if d2 <= r2:
-                            gidx[n] = p
-                            gdist[n] = math.sqrt(d2)
-                            n += 1
+        _ball_points(c, tp, origin, s, nx, ny, nz, dc[c] + 2.0 * h + eps, bstart, border, gidx, gdist, a)
         order = np.argsort(gdist[a:e])
         gi = gidx[a:e][order].copy()
         gd = gdist[a:e][order].copy()
@@ -160,11 +164,7 @@ def grid_nn2(y0, y1, y2, best, tp, geo, dims, offsets, gidx, gdist):
     for k in range(a, e):
         if gdist[k] - dy > bd:
             break
-        p = gidx[k]
-        e0 = y0 - tp[p, 0]
-        e1 = y1 - tp[p, 1]
-        e2 = y2 - tp[p, 2]
-        d = e0 * e0 + e1 * e1 + e2 * e2
+        d = _dist2(y0, y1, y2, tp, gidx[k])
         if d < best:
             best = d
             bd = math.sqrt(best)

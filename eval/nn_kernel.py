@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .nn_grid import grid_nn2
+from .nn_grid import _dist2, grid_nn2
 
 # the "no grid" arguments of add_adds_kernel (an empty offsets array switches the grid off)
 NO_GRID = (np.zeros(5), np.zeros(3, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
@@ -70,11 +70,7 @@ def _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d):
 def _candidates_best(y0, y1, y2, best, i, pts, cand):
     """Smallest squared distance of ``y`` to point i's candidate points, starting from ``best``."""
     for q in range(cand.shape[1]):
-        c = cand[i, q]
-        e0 = y0 - pts[c, 0]
-        e1 = y1 - pts[c, 1]
-        e2 = y2 - pts[c, 2]
-        d = e0 * e0 + e1 * e1 + e2 * e2
+        d = _dist2(y0, y1, y2, pts, cand[i, q])
         if d < best:
             best = d
     return best
