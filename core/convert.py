@@ -182,17 +182,7 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
         if renderer is None:
             renderer = Renderer()
         for f in scene.frames:
-            insts = [Instance(obj_id=i.obj_id, T_m2c=recentre_pose(i.T_m2c, centers[i.obj_id]), gt_id=i.gt_id)
-                     for i in f.instances]
-            fb = Frame(scene_id=v, im_id=f.im_id, camera=f.camera, instances=insts, depth_scale=f.depth_scale,
-                       T_w2c=f.T_w2c)
-            depth = read_depth_mm(f.depth_path, f.depth_scale, where=f.where)
-            if depth.shape != (f.camera.height, f.camera.width):
-                raise YcbvssError(f"depth image is {depth.shape[1]}x{depth.shape[0]}, expected "
-                                  f"{f.camera.width}x{f.camera.height}", f.depth_path, f.where)
-            masks, masks_visib, infos = compute_gt_info(renderer, fb, bop_models, depth, delta_mm)
-            writer.write_frame(fb, masks=masks, masks_visib=masks_visib, gt_info=infos,
-                               rgb_src=f.rgb_path, depth_src=f.depth_path)
+            _write_frame(writer, renderer, f, centers, bop_models, delta_mm)
             done += 1
             bar.update(1)
         writer.close()
@@ -203,6 +193,22 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
     write_models_eval(out, show_progress=show_progress, overwrite=overwrite)
     write_text_atomic(out / "dataset_info.md", dataset_info_md(splits, sorted(bop_models), delta_mm))
     dt = time.perf_counter() - t0
-    return {"out": str(out), "videos": list(ds.scene_ids), "splits": splits, "frames_written": done, "frames_skipped": skipped,
-            "models": sorted(bop_models), "seconds": dt, "seconds_models": t_models,
+    return {"out": str(out), "videos": list(ds.scene_ids), "splits": splits, "frames_written": done,
+            "frames_skipped": skipped, "models": sorted(bop_models), "seconds": dt, "seconds_models": t_models,
             "centers_mm": {k: v.tolist() for k, v in centers.items()}}
+
+
+def _write_frame(writer, renderer, f, centers: dict, bop_models: dict, delta_mm: float) -> None:
+    """One YCB-V frame into the BOP scene ``writer``: poses recentred on the model centres (mm),
+    images copied, masks and gt_info computed against its depth image."""
+    insts = [Instance(obj_id=i.obj_id, T_m2c=recentre_pose(i.T_m2c, centers[i.obj_id]), gt_id=i.gt_id)
+             for i in f.instances]
+    fb = Frame(scene_id=f.scene_id, im_id=f.im_id, camera=f.camera, instances=insts, depth_scale=f.depth_scale,
+               T_w2c=f.T_w2c)
+    depth = read_depth_mm(f.depth_path, f.depth_scale, where=f.where)
+    if depth.shape != (f.camera.height, f.camera.width):
+        raise YcbvssError(f"depth image is {depth.shape[1]}x{depth.shape[0]}, expected "
+                          f"{f.camera.width}x{f.camera.height}", f.depth_path, f.where)
+    masks, masks_visib, infos = compute_gt_info(renderer, fb, bop_models, depth, delta_mm)
+    writer.write_frame(fb, masks=masks, masks_visib=masks_visib, gt_info=infos,
+                       rgb_src=f.rgb_path, depth_src=f.depth_path)
