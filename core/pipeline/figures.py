@@ -9,7 +9,7 @@ import numpy as np
 
 from ..io.atomic import atomic_path
 from ..io.images import write_png
-from ..viz import contour_overlay, put_label, side_by_side
+from ..viz import contour_overlay, put_label, pyplot, side_by_side
 
 # RGB colours of the pose sets in overlays and curves
 # (initial is magenta, not red: a red contour vanishes on the red mug and the red cans)
@@ -96,11 +96,7 @@ def error_curves_png(path: str | Path, series: dict[str, dict], add_max_mm: floa
                      prj_max_px: float = 10.0, title: str = "") -> Path:
     """Accuracy curves (fraction of (view, object) pairs with error <= threshold) of ADD and PRJ
     for each pose set in ``series`` {name: {"add_mm": array, "prj_px": array}}; one PNG, 2 panels."""
-    # lazy: matplotlib takes ~0.9 s to import
-    import matplotlib
-    matplotlib.use("Agg")
-    # lazy: matplotlib takes ~0.9 s to import
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), dpi=110)

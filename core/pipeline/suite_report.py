@@ -20,6 +20,7 @@ import numpy as np
 from ..eval.tables import ERROR_COLS, ERROR_HEADERS, ERROR_LATEX, Row, Table, write_table
 from ..io.atomic import atomic_path, read_json
 from ..refine.confidence import sigma_scale
+from ..viz import pyplot
 from .pose_sets import PAPER_TABLE5
 
 TARGETS = {"long": (0.25, 0.25, 0.8, 0.2, 0.4), "medium": (0.25, 0.25, 0.8, 0.2, 0.4),
@@ -181,11 +182,7 @@ def capture_table(rows: list[dict]) -> tuple[Table, dict]:
 
 
 def capture_png(curves: dict, path: Path) -> Path:
-    # lazy: matplotlib takes ~0.9 s to import
-    import matplotlib
-    matplotlib.use("Agg")
-    # lazy: matplotlib takes ~0.9 s to import
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(5.5, 3.6))
     for k, pts in curves.items():
