@@ -234,34 +234,16 @@ def write_html(path: Path, title: str, info: list[tuple[str, str]], sections: li
 # ----------------------------------------------------------------------------- writers
 def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refined, errs, stages, originals,
                              src_layout, errs_kf: dict | None = None) -> dict:
-    tdir, fdir, pdir = out / "tables", out / "figures", out / "poses"
-    files: list[Path] = []
+    """Everything `ycbvss validate` writes into ``out``: tables (Table 4/5 layouts, summary), pose and
+    error CSVs, curves, overlays, ``summary.json`` and ``report.html``. ``errs``/``errs_kf``: per-variant
+    pose-set errors (:func:`ycbvss.pipeline.pose_sets.pose_set_errors`) on all / the keyframe pairs;
+    ``pr`` the perturbation result; ``refined`` variant -> poses (+ "_stats"). Returns the summary."""
     n_pairs = len(gt)
-    t4 = table4(errs["using all"], errs["initial"], models,
-                caption=f"Bundle pose refinement on {n_pairs} (view, object) pairs with exact GT: mean absolute "
-                        "errors. Textureless objects marked *. Below the last rule: the paper's numbers "
-                        "(Li et al., YCBV-SS) and BCOT's binocular results, for reference only (other data).")
-    files += write_tables(t4, tdir, "table4")
-    t5 = None
-    if errs_kf:
-        n_kf = len({k for e in errs_kf["using all"].values() for k in e["keys"]})
-        t5 = table5({k: v for k, v in errs_kf.items() if k != "initial"},
-                    caption=f"Ablation on the keyframes ({n_kf} (view, object) pairs): the same initial poses refined "
-                            "with one cost term removed (best in bold). Below the rule: the paper's Table 5.")
-        files += write_tables(t5, tdir, "table5")
-    ts = summary_table({**errs, **{f"{k} (keyframes)": v for k, v in (errs_kf or {}).items()
-                                   if k not in ("initial", "using all")}}, pr)
-    files += write_tables(ts, tdir, "summary")
-    files.append(write_poses_csv(pdir / "initial_poses.csv", pr.poses))
-    files.append(write_poses_csv(pdir / "refined_poses.csv", refined["using all"]))
-    for v in refined:
-        if v not in ("using all", "_stats"):
-            files.append(write_poses_csv(pdir / f"refined_{v.replace('/', '').replace(' ', '_')}.csv", refined[v]))
-    files.append(write_errors_csv(pdir / "errors_per_pose.csv",
-                                  {**errs, **{f"{k} (keyframes)": v for k, v in (errs_kf or {}).items()
-                                              if k not in ("initial", "using all")}}))
-    curve_paths = _curves(fdir, errs, models)
-    ov = _overlays(fdir, scenes, models, {"initial": pr.poses, "refined": refined["using all"]}, gt,
+    kf_extra = {f"{k} (keyframes)": v for k, v in (errs_kf or {}).items() if k not in ("initial", "using all")}
+    (t4, t5, ts), files = _validation_tables(out / "tables", errs, errs_kf, kf_extra, models, pr, n_pairs)
+    files += _validation_pose_files(out / "poses", pr, refined, {**errs, **kf_extra})
+    curve_paths = _curves(out / "figures", errs, models)
+    ov = _overlays(out / "figures", scenes, models, {"initial": pr.poses, "refined": refined["using all"]}, gt,
                    opts.overlays, originals, image_label="YCBV-SS" if not opts.gt_exact else "rendered")
     files += curve_paths + ov
     m_init, m_ref = means(errs["initial"]), means(errs["using all"])
@@ -276,23 +258,13 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
         "refine_stats": {v: {str(s): d for s, d in st.items()} for v, st in refined["_stats"].items()},
         "timings_s": dict(stages.times), **(opts.extra_info or {}),
     }
-    tt = timings_table(stages)
-    summary_path = out / "summary.json"
     info = [("dataset", str(opts.dataset)), ("scenes / frames / pairs",
                                              f"{len(scenes)} / {summary['frames']} / {n_pairs}"),
             ("initial poses", pr.summary()),
             ("refined (all terms)", f"mean ADD {m_ref['add_mm']:.3f} mm, mean PRJ {m_ref['prj_px']:.3f} px")]
     info += [(k, str(v)) for k, v in (opts.extra_info or {}).items()]
-    sections = [("Table 4 layout: per-object errors after refinement", table_html(t4)),
-                ]
-    if t5 is not None:
-        sections.append(("Table 5 layout: ablation", table_html(t5)))
-    sections.append(("Initial vs refined", table_html(ts)))
-    sections.append(("Error curves", "".join(_img_tag(p, p.name) for p in curve_paths)))
-    if ov:
-        sections.append(("Overlays (white: GT; red: initial; green: refined)",
-                         "".join(f"<p>{html.escape(p.name)}</p>{_img_tag(p, p.name)}" for p in ov)))
-    sections.append(("Timings", table_html(tt)))
+    sections = _validation_sections(t4, t5, ts, curve_paths, ov, timings_table(stages))
+    summary_path = out / "summary.json"
     write_json_atomic(summary_path, summary)
     files.append(summary_path)
     report = write_html(out / "report.html", opts.title, info, sections, files)
@@ -301,6 +273,52 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
     summary["table5_md"] = table_text(t5) if t5 is not None else ""
     summary["files"] = [str(p) for p in files] + [str(report)]
     return summary
+
+
+def _validation_tables(tdir: Path, errs: dict, errs_kf: dict | None, kf_extra: dict, models: dict, pr,
+                       n_pairs: int) -> tuple[tuple, list[Path]]:
+    """((Table 4, Table 5 or None, summary table), files written) of a validation run."""
+    files: list[Path] = []
+    t4 = table4(errs["using all"], errs["initial"], models,
+                caption=f"Bundle pose refinement on {n_pairs} (view, object) pairs with exact GT: mean absolute "
+                        "errors. Textureless objects marked *. Below the last rule: the paper's numbers "
+                        "(Li et al., YCBV-SS) and BCOT's binocular results, for reference only (other data).")
+    files += write_tables(t4, tdir, "table4")
+    t5 = None
+    if errs_kf:
+        n_kf = len({k for e in errs_kf["using all"].values() for k in e["keys"]})
+        t5 = table5({k: v for k, v in errs_kf.items() if k != "initial"},
+                    caption=f"Ablation on the keyframes ({n_kf} (view, object) pairs): the same initial poses refined "
+                            "with one cost term removed (best in bold). Below the rule: the paper's Table 5.")
+        files += write_tables(t5, tdir, "table5")
+    ts = summary_table({**errs, **kf_extra}, pr)
+    files += write_tables(ts, tdir, "summary")
+    return (t4, t5, ts), files
+
+
+def _validation_pose_files(pdir: Path, pr, refined: dict, all_errs: dict) -> list[Path]:
+    """Initial and refined poses of every variant as BOP19 CSVs, and the per-pose errors CSV."""
+    files = [write_poses_csv(pdir / "initial_poses.csv", pr.poses),
+             write_poses_csv(pdir / "refined_poses.csv", refined["using all"])]
+    for v in refined:
+        if v not in ("using all", "_stats"):
+            files.append(write_poses_csv(pdir / f"refined_{v.replace('/', '').replace(' ', '_')}.csv", refined[v]))
+    files.append(write_errors_csv(pdir / "errors_per_pose.csv", all_errs))
+    return files
+
+
+def _validation_sections(t4, t5, ts, curve_paths: list[Path], ov: list[Path], tt) -> list[tuple[str, str]]:
+    """The HTML report's (title, html) sections of a validation run."""
+    sections = [("Table 4 layout: per-object errors after refinement", table_html(t4))]
+    if t5 is not None:
+        sections.append(("Table 5 layout: ablation", table_html(t5)))
+    sections.append(("Initial vs refined", table_html(ts)))
+    sections.append(("Error curves", "".join(_img_tag(p, p.name) for p in curve_paths)))
+    if ov:
+        sections.append(("Overlays (white: GT; red: initial; green: refined)",
+                         "".join(f"<p>{html.escape(p.name)}</p>{_img_tag(p, p.name)}" for p in ov)))
+    sections.append(("Timings", table_html(tt)))
+    return sections
 
 
 def write_real_outputs(out: Path, opts, scenes, models, orig, Ks, refined, diff, stages) -> dict:
