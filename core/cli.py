@@ -16,13 +16,13 @@ from .errors import YcbvssError
 # (module, function): each function takes the argparse sub-parsers object and adds commands,
 # setting ``func`` (handler taking the parsed args, returning an exit code) on each parser.
 _REGISTRARS = [
-    ("ycbvss.pipeline.cli", "register"),     # demo, validate
-    ("ycbvss.pipeline.commands", "register"), # convert, assets
-    ("ycbvss.synth.cli", "register"),        # synth, synth preview
-    ("ycbvss.refine.cli", "register"),       # refine
-    ("ycbvss.eval.cli", "register"),         # eval
-    ("ycbvss.pipeline.benchmark_cli", "register"),   # benchmark make|run|score
-    ("ycbvss.pipeline.export_cli", "register"), # export, gt
+    ("ycbvss.pipeline.cli", "register"),            # demo, validate
+    ("ycbvss.pipeline.commands", "register"),       # convert, assets
+    ("ycbvss.pipeline.synth_cli", "register"),      # synth, synth preview
+    ("ycbvss.pipeline.refine_cli", "register"),     # refine
+    ("ycbvss.pipeline.eval_cli", "register"),       # eval
+    ("ycbvss.pipeline.benchmark_cli", "register"),  # benchmark make|run|score
+    ("ycbvss.pipeline.export_cli", "register"),     # export, gt
 ]
 
 

@@ -46,8 +46,8 @@ def run(args: argparse.Namespace) -> int:
     from ..io.bop_dataset import resolve_split
     from ..io.results import read_bop19_csv
     from ..io.ycbv import parse_videos
-    from .evaluate import EstArrays, EvalOptions, GtArrays, evaluate_arrays
-    from .outputs import summary_text, write_outputs
+    from ..eval.evaluate import EstArrays, EvalOptions, GtArrays, evaluate_arrays
+    from ..eval.outputs import summary_text, write_outputs
     root = Path(args.dataset)
     if not root.is_dir():
         raise YcbvssError("dataset root not found", root)
@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     if args.scenes is not None:
         args.scenes = parse_videos(",".join(args.scenes), "scene list")
     # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
-    from .symmetric_sets import parse_symmetric
+    from ..eval.symmetric_sets import parse_symmetric
     sym, sym_label = parse_symmetric(args.symmetric)
     options = EvalOptions(symmetric_obj_ids=sym, symmetric_set=sym_label, use_symmetries=args.use_symmetries,
                           adds_for=args.adds_for, add_bound_mm=args.add_bound_mm,

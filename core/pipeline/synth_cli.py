@@ -66,15 +66,15 @@ def _handler(args: argparse.Namespace) -> int:
         args.split = "test"                      # YCB-Video root input: the output split name
     if args.action == "preview":
         # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
-        from .preview import write_preview
+        from ..synth.preview import write_preview
         out = write_preview(args.dataset, args.split, args.out, _scenes(args.scenes))
         print(f"preview written to {out}")
         return 0
     if not args.out:
         raise YcbvssError("--out is required")
     # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
-    from .noise import NoiseParams
-    from .run import SynthOptions, run_synth
+    from ..synth.noise import NoiseParams
+    from ..synth.run import SynthOptions, run_synth
     opts = SynthOptions(seed=args.seed, samples=args.samples, denoise=args.denoise, max_bounces=args.max_bounces,
                         noise=NoiseParams(shot=args.shot_noise, read=args.read_noise, blur_sigma_px=args.blur),
                         colour_fit=not args.no_colour_fit, colour_fit_method=args.colour_fit_method,

@@ -44,8 +44,8 @@ def _refine_job(job: dict) -> dict:
     # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.bop import load_dataset
     from ..io.results import write_bop19_csv
-    from .bundle import refine_scene
-    from .io import estimates_of, write_scene_outputs
+    from ..refine.bundle import refine_scene
+    from ..refine.io import estimates_of, write_scene_outputs
 
     sid = job["scene_id"]
     ds = load_dataset(job["dataset"], job["split"], models_subdir=job["models_subdir"], scene_ids=[sid])
@@ -73,7 +73,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..io.results import read_bop19_csv, write_bop19_csv
     from ..io.ycbv import parse_videos
     from ..parallel import run_jobs
-    from .bundle import RefineOptions
+    from ..refine.bundle import RefineOptions
     args.split = resolve_split(args.dataset, args.split)
     scenes = None if args.scenes is None else parse_videos(",".join(args.scenes), "scene list")
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)
