@@ -673,7 +673,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         moved = (float(obj_move[0][j]) + float(cam_move_mm[i])
                  + np.radians(float(obj_move[1][j]) + float(cam_move_deg[i])) * quality[oid]["radius_mm"])
         ps = classify(quality[oid]["contour_px"], sig, moved, observed=any(k[1] == oid for k in visible),
-                      numerical_failure=(im, oid) in failed)
+                      numerical_failure=(im, oid) in failed, width_px=views[i].width)
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))

@@ -16,8 +16,9 @@ Three measurements per object of a scene:
   object's translation change plus the rotation change acting at the object's mean radius).
 
 Status: ``failed`` for a numerical failure (NaN, singular system) or a contour clearly off the
-image edges (``contour_px > FAIL_PX``); ``uncertain`` when the contour is loose
-(``> OK_PX``), the calibrated ``sigma_add_mm`` exceeds ``SIGMA_OK_MM``, the pose was still
+image edges (``contour_px > FAIL_PX``; both px thresholds are for 640-px-wide images, as YCB-V's,
+and scale with the width); ``uncertain`` when the contour is loose (``> OK_PX``), the calibrated
+``sigma_add_mm`` exceeds ``SIGMA_OK_MM``, the pose was still
 moving, or the object had no image terms; ``converged`` otherwise. ``converged`` therefore means:
 the pose stopped (last outer step below ``MOVE_TOL_MM`` / ``MOVE_TOL_DEG``), its silhouette lies on
 image edges and its calibrated uncertainty is small.
@@ -34,8 +35,9 @@ import cv2
 import numpy as np
 
 CONTOUR_TRUNC_PX = 3.0
-OK_PX = 1.0
+OK_PX = 1.0             # contour thresholds at REF_WIDTH_PX; scaled with the image width
 FAIL_PX = 2.5
+REF_WIDTH_PX = 640
 SIGMA_OK_MM = 2.0
 CONF_SIGMA_MM = 4.0
 MOVE_TOL_MM = 0.25
@@ -171,13 +173,17 @@ class PoseStatus:
 
 
 def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, observed: bool,
-             numerical_failure: bool = False) -> PoseStatus:
-    """Status and confidence of one pose (see the module docstring for the rules)."""
+             numerical_failure: bool = False, width_px: int = REF_WIDTH_PX) -> PoseStatus:
+    """Status and confidence of one pose (see the module docstring for the rules). ``contour_px``
+    is measured in an image ``width_px`` wide; the thresholds ``OK_PX`` / ``FAIL_PX`` hold at
+    ``REF_WIDTH_PX`` (YCB-V's 640 px) and scale with the width, so an offset means the same
+    angular (and metric) misalignment at any resolution."""
     if numerical_failure:
         return PoseStatus("failed", 0.0, "numerical failure")
     reasons = []
+    ok_px, fail_px = OK_PX * width_px / REF_WIDTH_PX, FAIL_PX * width_px / REF_WIDTH_PX
     if np.isfinite(contour_px):
-        q_c = float(np.clip((FAIL_PX - contour_px) / (FAIL_PX - OK_PX), 0.0, 1.0))
+        q_c = float(np.clip((fail_px - contour_px) / (fail_px - ok_px), 0.0, 1.0))
     else:
         q_c = 0.5
         reasons.append("contour not visible")
@@ -191,9 +197,9 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         reasons.append("no image terms (placed by the scene consistency only)")
     if moving or not observed:
         conf *= 0.7
-    if np.isfinite(contour_px) and contour_px > FAIL_PX:
+    if np.isfinite(contour_px) and contour_px > fail_px:
         return PoseStatus("failed", min(conf, 0.1), f"contour {contour_px:.2f} px off the image edges")
-    if np.isfinite(contour_px) and contour_px > OK_PX:
+    if np.isfinite(contour_px) and contour_px > ok_px:
         reasons.append(f"contour {contour_px:.2f} px off the image edges")
     if s is None:
         reasons.append("no uncertainty")

@@ -16,6 +16,8 @@ from functools import cached_property
 import cv2
 import numpy as np
 
+from .cubic_kernel import cubic_sample
+
 
 def to_gray_f32(image: np.ndarray) -> np.ndarray:
     """RGB uint8 (H, W, 3) or gray (H, W) -> gray float32 in [0, 255]."""
@@ -123,20 +125,7 @@ def sample_bilinear(data: np.ndarray, uv: np.ndarray, outside: np.ndarray | None
     return out, inside
 
 
-# Catmull-Rom weights of taps -1, 0, 1, 2 as polynomials in t: w = [t^3, t^2, t, 1] @ _CR_W,
-# dw/dt = [t^2, t, 1] @ _CR_DW
-_CR_W = 0.5 * np.array([[-1.0, 3.0, -3.0, 1.0], [2.0, -5.0, 4.0, -1.0], [-1.0, 0.0, 1.0, 0.0], [0.0, 2.0, 0.0, 0.0]])
-_CR_DW = 0.5 * np.array([[-3.0, 9.0, -9.0, 3.0], [4.0, -10.0, 8.0, -2.0], [-1.0, 0.0, 1.0, 0.0]])
-
-
-def _catmull_rom(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Catmull-Rom weights (N, 4) for taps -1, 0, 1, 2 at fractional positions t (N,) and their derivatives."""
-    T = np.empty((len(t), 4))
-    T[:, 2] = t
-    np.multiply(t, t, out=T[:, 1])
-    np.multiply(T[:, 1], t, out=T[:, 0])
-    T[:, 3] = 1.0
-    return T @ _CR_W, T[:, 1:] @ _CR_DW
+_NO_HESS = np.zeros((0, 0, 3))
 
 
 def _sample_cubic(Ep: np.ndarray, u: np.ndarray, v: np.ndarray, with_grad: bool,
@@ -144,29 +133,12 @@ def _sample_cubic(Ep: np.ndarray, u: np.ndarray, v: np.ndarray, with_grad: bool,
     """Catmull-Rom bicubic value (N,) and exact gradient (N, 2) of E at in-image points (taps
     clamped), and with ``Hp`` (:attr:`EdgeField.hessian_padded`) the bilinear Hessian channels (N, 3).
 
-    ``Ep`` is E padded as :attr:`EdgeField.E_padded` (so the 16 taps of a point are one gather);
-    u and v are sampled together (one weight evaluation for both axes)."""
-    n, Wp = len(u), Ep.shape[1]
-    u0, v0 = np.floor(u), np.floor(v)
-    base = v0.astype(np.intp) * Wp + u0.astype(np.intp)
-    P = np.take(Ep, base[:, None] + (np.arange(4)[:, None] * Wp + np.arange(4)[None, :]).ravel()).reshape(n, 4, 4)
-    tu, tv = u - u0, v - v0
-    w, dw = _catmull_rom(np.concatenate([tu, tv]))
-    wu, wv = w[:n], w[n:]
-    row = np.einsum("nrc,nc->nr", P, wu)                               # interpolated along u
-    val = np.einsum("nr,nr->n", row, wv)
-    if not with_grad:
-        return val, None, None
-    gu = np.einsum("nr,nr->n", np.einsum("nrc,nc->nr", P, dw[:n]), wv)
-    gv = np.einsum("nr,nr->n", row, dw[n:])
-    hess = None
-    if Hp is not None:       # the same arithmetic as sample_bilinear (identical values, also at u = W - 1)
-        flat = Hp.reshape(-1, 3)
-        i00 = base + (Wp + 1)
-        a, b = tu[:, None], tv[:, None]
-        hess = ((1 - a) * (1 - b) * flat[i00] + a * (1 - b) * flat[i00 + 1]
-                + (1 - a) * b * flat[i00 + Wp] + a * b * flat[i00 + Wp + 1])
-    return val, np.stack([gu, gv], 1), hess
+    ``Ep`` is E padded as :attr:`EdgeField.E_padded` (so the 16 taps of a point are read
+    directly); compiled kernel :func:`ycbvss.refine.cubic_kernel.cubic_sample`."""
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    v = np.ascontiguousarray(v, dtype=np.float64)
+    val, grad, hess = cubic_sample(Ep, u, v, with_grad, _NO_HESS if Hp is None else Hp, Hp is not None)
+    return val, (grad if with_grad else None), (hess if Hp is not None else None)
 
 
 def _inside(shape: tuple[int, int], uv: np.ndarray) -> np.ndarray:

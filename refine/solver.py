@@ -19,6 +19,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .normal_kernel import normal_eq
 from .problem import BundleProblem
 from .terms import Linearization
 
@@ -40,22 +41,13 @@ DENSE_MAX_PARAMS = 1200   # normal matrices up to this size are assembled and so
 
 def _normal_block(J: np.ndarray, A: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The (k, k) normal matrix sum_n J_n^T A_n J_n and (k,) gradient sum_n J_n^T g_n of pixel
-    Jacobians J (N, 2, k), pixel Hessians A (N, 2, 2) and gradients g (N, 2), summed over the
-    points with one matrix product.
+    Jacobians J (N, 2, k), pixel Hessians A (N, 2, 2) and gradients g (N, 2) (compiled kernel,
+    :func:`ycbvss.refine.normal_kernel.normal_eq`)."""
+    return normal_eq(_f64(J), np.zeros((len(J), 2, 0)), _f64(A), _f64(g))
 
-    A is applied row by row with broadcasting (no stacked 2x2 matmul); an isotropic A = w I (the
-    robust reprojection terms) takes a cheaper path."""
-    n, k = J.shape[0], J.shape[2]
-    a00, a01, a10, a11 = A[:, 0, 0, None], A[:, 0, 1, None], A[:, 1, 0, None], A[:, 1, 1, None]
-    if not (A[:, 0, 1].any() or A[:, 1, 0].any()) and np.array_equal(A[:, 0, 0], A[:, 1, 1]):
-        AJ = J * a00[:, :, None]                     # A = w I
-    else:
-        J0, J1 = J[:, 0], J[:, 1]
-        AJ = np.empty_like(J)
-        AJ[:, 0] = a00 * J0 + a01 * J1
-        AJ[:, 1] = a10 * J0 + a11 * J1
-    Jf = J.reshape(2 * n, k)
-    return Jf.T @ AJ.reshape(2 * n, k), Jf.T @ g.reshape(2 * n)
+
+def _f64(x: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(x, dtype=np.float64)
 
 
 def _lin_blocks(L: Linearization) -> tuple[list[tuple[int, int, np.ndarray]], list[tuple[int, np.ndarray]]]:
@@ -65,14 +57,12 @@ def _lin_blocks(L: Linearization) -> tuple[list[tuple[int, int, np.ndarray]], li
     a, b = int(L.a), int(L.b)
     if len(L.g) == 0 or (a < 0 and b < 0):
         return [], []
+    A, g = _f64(L.A), _f64(L.g)
     if a < 0 or b < 0:
         p, Jp = (a, L.Ja) if a >= 0 else (b, L.Jb)
-        H6, g6 = _normal_block(Jp, L.A, L.g)
+        H6, g6 = normal_eq(_f64(Jp), np.zeros((len(g), 2, 0)), A, g)
         return [(p, p, H6)], [(p, g6)]
-    J = np.empty((len(L.g), 2, 12))
-    J[:, :, :6] = L.Ja
-    J[:, :, 6:] = L.Jb
-    H12, g12 = _normal_block(J, L.A, L.g)
+    H12, g12 = normal_eq(_f64(L.Ja), _f64(L.Jb), A, g)
     idx = ((a, 0), (b, 6))
     return ([(p, q, H12[P:P + 6, Q:Q + 6]) for p, P in idx for q, Q in idx],
             [(p, g12[P:P + 6]) for p, P in idx])

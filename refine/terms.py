@@ -21,8 +21,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry.se3 import inv_T
+from .cubic_kernel import edge_cost_sum
 from .edge import EdgeField, sample_E, sample_field
-from .jacobians import object_point_jacobians, project_points, transfer_point_jacobians
+from .jacobians import MIN_Z_MM, object_point_jacobians, project_points, transfer_point_jacobians
 from .problem import BundleProblem
 
 
@@ -57,6 +58,10 @@ def psd2(H: np.ndarray, floor: float = 0.0) -> np.ndarray:
     return out
 
 
+def _f64(x: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(x, dtype=np.float64)
+
+
 @dataclass
 class EdgeGroup:
     i: int          # view index
@@ -89,10 +94,15 @@ class EdgeTerm:
     def cost(self, pb: BundleProblem) -> float:
         tot = 0.0
         for gr in self.groups:
-            uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
-            uv = np.where(valid[:, None], uv, -1e9)
-            E = sample_E(self.fields[gr.i], uv)
-            tot += float(np.where(valid, E, 1.0).sum())
+            f = self.fields[gr.i]
+            if f.interp != "cubic":
+                uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
+                E = sample_E(f, np.where(valid[:, None], uv, -1e9))
+                tot += float(np.where(valid, E, 1.0).sum())
+                continue
+            H, W = f.shape
+            tot += edge_cost_sum(f.E_padded, H, W, np.ascontiguousarray(pb.views[gr.i].K, dtype=np.float64),
+                                 pb.T_c[gr.i] @ pb.T_m[gr.j], _f64(gr.X), MIN_Z_MM)
         return self.weight * tot
 
     def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:

@@ -52,6 +52,12 @@ def test_classify_rules():
     assert classify(0.3, 0.5, 0.0, False).status == "uncertain"        # no image terms
     nan = classify(0.3, 0.5, 0.0, True, numerical_failure=True)
     assert nan.status == "failed" and nan.confidence == 0.0
+    # px thresholds are for 640-px images: at 320 px, 0.6 px is the misalignment 1.2 px is at 640
+    # (the demo's 85 %-occluded plain mug, 4.6 deg off, measured 0.60 px at 320 px)
+    assert classify(0.6, 0.5, 0.0, True).status == "converged"
+    assert classify(0.6, 0.5, 0.0, True, width_px=320).status == "uncertain"
+    assert classify(1.4, 0.5, 0.0, True, width_px=320).status == "failed"
+    assert classify(1.6, 0.5, 0.0, True, width_px=1280).status == "converged"
 
 
 def test_contour_offset_measures_a_shifted_silhouette(scene3):
