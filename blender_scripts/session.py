@@ -38,7 +38,7 @@ GREY = (0.6, 0.6, 0.6)
 
 
 def _bpy():
-    import bpy  # noqa: WPS433 (only inside the worker)
+    import bpy  # lazy: only inside the Blender worker
     return bpy
 
 
