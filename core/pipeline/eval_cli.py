@@ -10,6 +10,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import YcbvssError
+from .options import add_split_option
 
 
 def register(subparsers) -> None:
@@ -19,7 +20,7 @@ def register(subparsers) -> None:
                     "AUC of ADD(-S) (bound 100 mm) and PRJ (10 px), ADD-PRJ-AUC, SR at 5 cm / 5 deg; overall "
                     "= mean over objects. GT instances without an estimate count as failed.")
     p.add_argument("--dataset", required=True, help="BOP dataset root (contains models/ and the split folder)")
-    p.add_argument("--split", default=None, help="split folder name, e.g. test (default: the dataset's only split)")
+    add_split_option(p)
     p.add_argument("--results", required=True, help="BOP19 results CSV")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--symmetric", nargs="*", default=None, metavar="SET|OBJ_ID",
@@ -42,12 +43,12 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..eval.evaluate import EstArrays, EvalOptions, GtArrays, evaluate_arrays
+    from ..eval.outputs import summary_text, write_outputs
     from ..io.bop import load_models
     from ..io.bop_dataset import resolve_split
     from ..io.results import read_bop19_csv
     from ..io.ycbv import parse_videos
-    from ..eval.evaluate import EstArrays, EvalOptions, GtArrays, evaluate_arrays
-    from ..eval.outputs import summary_text, write_outputs
     root = Path(args.dataset)
     if not root.is_dir():
         raise YcbvssError("dataset root not found", root)

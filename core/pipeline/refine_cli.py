@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from ..errors import YcbvssError
+from .options import add_split_option
 
 
 def register(sub) -> None:
@@ -16,7 +17,7 @@ def register(sub) -> None:
                                    "scene_camera.json (solved cam_R_w2c/cam_t_w2c), world poses, per-pose "
                                    "uncertainty and a convergence log.")
     p.add_argument("--dataset", required=True, help="BOP dataset root (with models/ and the split folder)")
-    p.add_argument("--split", default=None, help="split folder name, e.g. test (default: the dataset's only split)")
+    add_split_option(p)
     p.add_argument("--init", required=True,
                    help="initial poses: a BOP19 results CSV, or 'scene_gt' to start from each scene's scene_gt.json")
     p.add_argument("--out", required=True, help="output directory")
