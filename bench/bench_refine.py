@@ -26,7 +26,7 @@ VIEW_T_SIGMA_MM, VIEW_R_SIGMA_DEG = (1.0, 1.0, 24.0), 0.7
 def make(seed: int, frames: int, width: int, arc_deg: float):
     from ycbvss.procedural.render import render_frame_fast
     from ycbvss.procedural.scene import make_scene
-    from ycbvss.refine.accuracy import deviate_scene
+    from ycbvss.refine.deviation import deviate_scene
 
     ps = make_scene(seed=seed, n_frames=frames, width=width, height=width * 3 // 4, arc_deg=arc_deg)
     imgs = {f.im_id: render_frame_fast(ps, f, noise_sigma=1.5)[0] for f in ps.frames}
@@ -37,15 +37,19 @@ def make(seed: int, frames: int, width: int, arc_deg: float):
     return ps, imgs, gt, init
 
 
+# table column -> ycbvss.eval.metrics error key
+TABLE_KEYS = {"tx": "tx_mm", "ty": "ty_mm", "tz": "tz_mm", "R": "r_deg", "PRJ": "prj_px", "ADD": "add_mm"}
+
+
 def errors(ps, poses, gt):
-    from ycbvss.refine.accuracy import pose_errors
+    from ycbvss.eval.metrics import pose_errors_4x4
 
     K = ps.frames[0].camera.K
     out = {}
     for o, m in ps.models.items():
         pts = np.asarray(m.mesh.vertices)[:: max(1, len(m.mesh.vertices) // 1000)]
-        e = [pose_errors(poses[k], gt[k], pts, K) for k in gt if k[1] == o]
-        out[o] = {k: float(np.mean([x[k] for x in e])) for k in e[0]}
+        e = [pose_errors_4x4(poses[k], gt[k], K, pts) for k in gt if k[1] == o]
+        out[o] = {c: float(np.mean([x[k] for x in e])) for c, k in TABLE_KEYS.items()}
     return out
 
 
@@ -56,6 +60,23 @@ def table(rows: dict[str, dict], title: str) -> str:
     for name, r in rows.items():
         lines.append(f"| {name} | " + " | ".join(f"{r[c]:.3f}" for c in cols) + " |")
     return "\n".join(lines)
+
+
+def _option_override(text: str) -> tuple[str, object]:
+    """``name=value`` -> (name, value) for a RefineOptions field; the value is a Python literal
+    (number, bool, None, tuple; read with ast.literal_eval, never executed) or else a plain string."""
+    import ast
+    from dataclasses import fields
+
+    from ycbvss.refine import RefineOptions
+
+    name, sep, value = text.partition("=")
+    if not sep or name not in {f.name for f in fields(RefineOptions)}:
+        raise SystemExit(f"--opt {text!r}: expected NAME=VALUE with NAME a RefineOptions field")
+    try:
+        return name, ast.literal_eval(value)
+    except (ValueError, SyntaxError):
+        return name, value
 
 
 def main() -> None:
@@ -75,7 +96,7 @@ def main() -> None:
     warnings.simplefilter("ignore")
     from ycbvss.refine import RefineOptions, refine_scene
 
-    over = {k: eval(v) for k, v in (a.split("=", 1) for a in args.opt)}
+    over = dict(_option_override(a) for a in args.opt)
     configs = {"using all": RefineOptions(**over)}
     if args.accuracy and not args.no_ablation:
         configs.update({"w/o f_edge": RefineOptions(**{**over, "use_edge": False}),

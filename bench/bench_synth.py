@@ -29,15 +29,16 @@ YCBV = Path(os.environ.get("YCBVSS_SHARED_DATA", REPO.parent / "shared" / "data"
 
 
 def timing(args) -> None:
+    from ycbvss.geometry.model_frame import bbox_center
     from ycbvss.io.ycbv import load_ycbv_dataset
     from ycbvss.synth.executors import LocalExecutor
-    from ycbvss.synth.models import bbox_center_mm, write_dilated_models
+    from ycbvss.synth.models import write_dilated_models
     from ycbvss.synth.run import frame_task
     ds = load_ycbv_dataset(YCBV, [0, 1])
     s0, s1 = ds.load_scene(0), ds.load_scene(1)
     extra = [i for i in s0.frames[0].instances if i.obj_id in (8, 14)]
     obj_ids = sorted({i.obj_id for i in s1.frames[0].instances} | {i.obj_id for i in extra})
-    centres = {o: bbox_center_mm(ds.models[o].vertices_mm) for o in obj_ids}
+    centres = {o: bbox_center(ds.models[o].vertices_mm) for o in obj_ids}
     tmp = Path(tempfile.mkdtemp(prefix="bench_synth_"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

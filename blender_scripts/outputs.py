@@ -4,12 +4,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import OpenEXR
+
+from ycbvss.io.atomic import atomic_path
+from ycbvss.io.images import write_exr_depth, write_png
 
 
 def write_exr_rgba(path, rgba: np.ndarray) -> None:
     """(H, W, 4) float32 linear RGBA -> OpenEXR float32 channels R, G, B, A (ZIP)."""
-    import OpenEXR
-    from ycbvss.io.atomic import atomic_path
     a = np.ascontiguousarray(rgba, dtype=np.float32)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     chans = {c: np.ascontiguousarray(a[..., i]) for i, c in enumerate("RGBA")}
@@ -20,7 +22,6 @@ def write_exr_rgba(path, rgba: np.ndarray) -> None:
 
 def read_exr_rgba(path) -> np.ndarray:
     """Inverse of :func:`write_exr_rgba`: (H, W, 4) float32."""
-    import OpenEXR
     with OpenEXR.File(str(path), separate_channels=True) as f:
         ch = f.channels()
         return np.stack([np.asarray(ch[c].pixels, np.float32) for c in "RGBA"], axis=-1)
@@ -28,7 +29,6 @@ def read_exr_rgba(path) -> np.ndarray:
 
 def write_render_outputs(out_dir, frame_id, result: dict) -> dict:
     """Write ``<id>_rgba.exr``, ``<id>_depth.exr`` (float32 mm, 0 = background), ``<id>_index.png``."""
-    from ycbvss.io.images import write_exr_depth, write_png
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = {"rgba": out_dir / f"{frame_id}_rgba.exr", "depth": out_dir / f"{frame_id}_depth.exr",

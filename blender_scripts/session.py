@@ -19,7 +19,12 @@ import time
 import warnings
 from pathlib import Path
 
+import cv2
 import numpy as np
+import OpenEXR
+import trimesh
+
+from ycbvss.io.mesh import _texture_reference, load_mesh_mm, mesh_texture_rgb, mesh_uv
 
 from .camera import CV_TO_BLENDER_CAM, blender_camera_params, border_from_bbox, projected_bbox
 
@@ -33,7 +38,7 @@ GREY = (0.6, 0.6, 0.6)
 
 
 def _bpy():
-    import bpy  # noqa: WPS433 (only inside the worker)
+    import bpy  # lazy: only inside the Blender worker
     return bpy
 
 
@@ -185,13 +190,11 @@ class BlenderSession:
             self._mesh_specs[key] = ident
 
     def _build_mesh(self, key: str, path: str, unit_scale: float) -> None:
-        from ycbvss.io.mesh import _texture_reference, load_mesh_mm, mesh_texture_rgb, mesh_uv
         bpy = self.bpy
         tex_file = _texture_reference(Path(path))
         tex = None
         if tex_file is not None and tex_file.is_file() and tex_file.suffix.lower() in (".png", ".jpg", ".jpeg"):
             # geometry + UVs only; Blender reads the texture file itself (no decode/re-encode here)
-            import trimesh
             tm = trimesh.load(str(path), process=False, force="mesh", skip_materials=True)
             tm.vertices = np.asarray(tm.vertices, np.float64) * unit_scale
             uv = mesh_uv(tm)
@@ -250,7 +253,6 @@ class BlenderSession:
             if isinstance(tex_rgb, str):           # a texture file Blender can read directly
                 tex_path = Path(tex_rgb)
             else:
-                import cv2
                 tex_path = self._tmpdir / f"tex_{key}.png"
                 cv2.imwrite(str(tex_path), np.ascontiguousarray(tex_rgb[..., ::-1]), [cv2.IMWRITE_PNG_COMPRESSION, 1])
             img = bpy.data.images.load(str(tex_path), check_existing=False)
@@ -341,7 +343,6 @@ class BlenderSession:
 
 
 def _read_multilayer(path: Path) -> dict:
-    import OpenEXR
     chans = {}
     with OpenEXR.File(str(path), separate_channels=False) as f:
         for part in f.parts:
@@ -365,6 +366,7 @@ def _read_multilayer(path: Path) -> dict:
 
 
 def _matrix(M):
+    # lazy: only inside Blender
     import mathutils
     return mathutils.Matrix([list(map(float, row)) for row in np.asarray(M).reshape(4, 4)])
 

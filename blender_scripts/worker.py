@@ -21,6 +21,9 @@ import os
 import sys
 import traceback
 
+from .outputs import write_render_outputs
+from .session import BlenderSession
+
 
 class Worker:
     """State of one worker process: the Blender session (lazy) and a per-call-site cache."""
@@ -33,7 +36,6 @@ class Worker:
     @property
     def session(self):
         if self._session is None:
-            from .session import BlenderSession
             self._session = BlenderSession()
             self._session.configure(**self.settings)
         return self._session
@@ -55,7 +57,6 @@ class Worker:
             self.configure(req.get("settings", {}))
             return None
         if cmd == "render":
-            from .outputs import write_render_outputs
             frame = req["frame"]
             res = self.render(frame, req.get("meshes", {}), int(req.get("seed", 0)))
             paths = write_render_outputs(frame["out_dir"], frame["id"], res)

@@ -10,18 +10,19 @@ import importlib
 import sys
 import warnings
 
+from . import __version__
 from .errors import YcbvssError
 
 # (module, function): each function takes the argparse sub-parsers object and adds commands,
 # setting ``func`` (handler taking the parsed args, returning an exit code) on each parser.
 _REGISTRARS = [
-    ("ycbvss.pipeline.cli", "register"),     # demo, validate
-    ("ycbvss.commands", "register"),         # convert, assets
-    ("ycbvss.synth.cli", "register"),        # synth, synth preview
-    ("ycbvss.refine.cli", "register"),       # refine
-    ("ycbvss.eval.cli", "register"),         # eval
-    ("ycbvss.pipeline.benchmark_cli", "register"),   # benchmark make|run|score
-    ("ycbvss.export_cli", "register"),       # export, gt
+    ("ycbvss.pipeline.cli", "register"),            # demo, validate
+    ("ycbvss.pipeline.commands", "register"),       # convert, assets
+    ("ycbvss.pipeline.synth_cli", "register"),      # synth, synth preview
+    ("ycbvss.pipeline.refine_cli", "register"),     # refine
+    ("ycbvss.pipeline.eval_cli", "register"),       # eval
+    ("ycbvss.pipeline.benchmark_cli", "register"),  # benchmark make|run|score
+    ("ycbvss.pipeline.export_cli", "register"),     # export, gt
 ]
 
 
@@ -30,7 +31,6 @@ def build_parser() -> argparse.ArgumentParser:
         prog="ycbvss",
         description="ycbvss: YCB-Video/BOP data layer, YCBV-SS synthesis, bundle pose refinement "
                     "and pose evaluation. Run `ycbvss COMMAND --help` for the options of a command.")
-    from . import __version__
     p.add_argument("--version", action="version", version=f"ycbvss {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for mod_name, fn in _REGISTRARS:

@@ -17,12 +17,26 @@
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Iterable
 
+import cv2
 import numpy as np
 
+from . import __version__
 from .errors import YcbvssError, where as fmt_where
+from .geometry.model_frame import recentre_pose
+from .gt_info import compute_gt_info
+from .io.atomic import read_json, write_json_atomic, write_text_atomic
+from .io.bop import BopSceneWriter, load_models_info, model_filename
+from .io.bop_dataset import write_camera_files, write_models_eval, write_targets
+from .io.images import read_depth_mm
+from .io.mesh import compute_models_info, load_textured_mm, load_vertices_mm, write_ply_mm
+from .io.ycbv import list_frames, load_ycbv_dataset, model_center_mm
+from .manifest import bop_symmetries
+from .progress import progress
+from .render import Renderer
 from .scene import Frame, Instance, ObjectModel
 
 TEST_VIDEOS = range(48, 60)
@@ -40,33 +54,15 @@ def default_split(video: int) -> str:
     return "test" if video in TEST_VIDEOS else "train_real"
 
 
-def ycbv_to_bop_pose(T_m2c_mm: np.ndarray, c_mm: np.ndarray) -> np.ndarray:
-    """YCB-Video model-frame pose (mm) -> BOP model-frame pose: t' = t + R c (all mm)."""
-    T = np.array(T_m2c_mm, dtype=np.float64)
-    T[:3, 3] = T[:3, 3] + T[:3, :3] @ np.asarray(c_mm, np.float64)
-    return T
-
-
-def bop_to_ycbv_pose(T_bop_mm: np.ndarray, c_mm: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`ycbv_to_bop_pose`: t = t' - R c."""
-    T = np.array(T_bop_mm, dtype=np.float64)
-    T[:3, 3] = T[:3, 3] - T[:3, :3] @ np.asarray(c_mm, np.float64)
-    return T
-
-
-def _bop_mesh_from_obj(model: ObjectModel, texture_max_px: int | None = None):
-    """Load a YCB-V textured.obj, return (mesh recentred in mm, c_mm, texture RGB | None)."""
-    from .io.mesh import load_textured_mm, load_vertices_mm
-    v = load_vertices_mm(model.path, 1000.0)
-    c_mm = (v.min(axis=0) + v.max(axis=0)) / 2
+def _bop_mesh_from_obj(model: ObjectModel, c_mm: np.ndarray, texture_max_px: int | None = None):
+    """Load a YCB-V textured.obj, return (mesh recentred on ``c_mm``, in mm; texture RGB | None)."""
     mesh, tex = load_textured_mm(model.path, 1000.0)
     mesh.vertices = np.asarray(mesh.vertices, np.float64) - c_mm
     if tex is not None and texture_max_px and max(tex.shape[:2]) > texture_max_px:
-        import cv2
         s = texture_max_px / max(tex.shape[:2])
         tex = cv2.resize(tex, (max(1, round(tex.shape[1] * s)), max(1, round(tex.shape[0] * s))),
                          interpolation=cv2.INTER_AREA)
-    return mesh, c_mm, tex
+    return mesh, tex
 
 
 def convert_models(ycbv_models: dict[int, ObjectModel], models_dir: Path, overwrite: bool = False,
@@ -77,13 +73,6 @@ def convert_models(ycbv_models: dict[int, ObjectModel], models_dir: Path, overwr
     Returns ({obj_id: c_mm}, {obj_id: ObjectModel of the written PLY (mm, BOP frame)}).
     ``texture_max_px``: downsample textures whose longest side is larger (None: keep).
     """
-    from concurrent.futures import ThreadPoolExecutor
-    from .io.atomic import write_json_atomic
-    from .io.bop import load_models_info, model_filename
-    from .io.mesh import compute_models_info, load_vertices_mm, write_ply_mm
-    from .manifest import bop_symmetries
-    from .progress import progress
-
     models_dir = Path(models_dir)
     ids = sorted(ycbv_models if obj_ids is None else set(int(i) for i in obj_ids))
     for oid in ids:
@@ -101,11 +90,10 @@ def convert_models(ycbv_models: dict[int, ObjectModel], models_dir: Path, overwr
         src = ycbv_models[oid]
         ply = models_dir / model_filename(oid)
         png = models_dir / f"obj_{oid:06d}.png"
-        v_src = load_vertices_mm(src.path, 1000.0)
-        c_mm = (v_src.min(axis=0) + v_src.max(axis=0)) / 2
+        c_mm = model_center_mm(src.path)           # cached with the model's diameter: the OBJ is not read again
         disc, cont = bop_symmetries(oid)
         if overwrite or not (ply.is_file() and png.is_file()):
-            mesh, c_mm, tex = _bop_mesh_from_obj(src, texture_max_px)
+            mesh, tex = _bop_mesh_from_obj(src, c_mm, texture_max_px)
             write_ply_mm(ply, mesh, png.name if tex is not None else None, texture_rgb=tex)
         info = compute_models_info(load_vertices_mm(ply), disc, cont)   # from the stored float32 vertices
         m = ObjectModel(obj_id=oid, path=ply, name=src.name, unit_scale=1.0, diameter_mm=info["diameter"],
@@ -126,7 +114,6 @@ def convert_models(ycbv_models: dict[int, ObjectModel], models_dir: Path, overwr
 
 
 def _scene_complete(scene_dir: Path, im_ids: list[int]) -> bool:
-    from .io.atomic import read_json
     p = scene_dir / "scene_camera.json"
     if not (p.is_file() and (scene_dir / "scene_gt.json").is_file() and (scene_dir / "scene_gt_info.json").is_file()):
         return False
@@ -138,7 +125,6 @@ def _scene_complete(scene_dir: Path, im_ids: list[int]) -> bool:
 
 def dataset_info_md(splits, obj_ids, delta_mm: float) -> str:
     """dataset_info.md of a converted YCB-V root."""
-    from . import __version__
     return (f"# YCB-Video in BOP format (written by ycbvss {__version__}, `ycbvss convert ycbv`)\n\n"
             f"- splits: {', '.join(splits)}; targets: "
             + ", ".join(f"`{'test' if s == 'test' else s}_targets_bop19.json`" for s in splits) + "\n"
@@ -164,14 +150,6 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
     model textures larger than this (None: keep the 4096 px YCB textures); ``workers``: threads
     for the model conversion.
     """
-    from .gt_info import compute_gt_info
-    from .io.atomic import write_text_atomic
-    from .io.bop import BopSceneWriter
-    from .io.bop_dataset import write_camera_files, write_models_eval, write_targets
-    from .io.images import read_depth_mm
-    from .io.ycbv import list_frames, load_ycbv_dataset
-    from .progress import progress
-
     t0 = time.perf_counter()
     src, out = Path(src), Path(out)
     if out.resolve() == src.resolve():
@@ -202,20 +180,9 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
             bop_models.update(m2)
             t_models += time.perf_counter() - t1
         if renderer is None:
-            from .render import Renderer
             renderer = Renderer()
         for f in scene.frames:
-            insts = [Instance(obj_id=i.obj_id, T_m2c=ycbv_to_bop_pose(i.T_m2c, centers[i.obj_id]), gt_id=i.gt_id)
-                     for i in f.instances]
-            fb = Frame(scene_id=v, im_id=f.im_id, camera=f.camera, instances=insts, depth_scale=f.depth_scale,
-                       T_w2c=f.T_w2c)
-            depth = read_depth_mm(f.depth_path, f.depth_scale, where=f.where)
-            if depth.shape != (f.camera.height, f.camera.width):
-                raise YcbvssError(f"depth image is {depth.shape[1]}x{depth.shape[0]}, expected "
-                                  f"{f.camera.width}x{f.camera.height}", f.depth_path, f.where)
-            masks, masks_visib, infos = compute_gt_info(renderer, fb, bop_models, depth, delta_mm)
-            writer.write_frame(fb, masks=masks, masks_visib=masks_visib, gt_info=infos,
-                               rgb_src=f.rgb_path, depth_src=f.depth_path)
+            _write_frame(writer, renderer, f, centers, bop_models, delta_mm)
             done += 1
             bar.update(1)
         writer.close()
@@ -226,6 +193,22 @@ def convert_ycbv(src: str | Path, out: str | Path, videos=None, split: str | Non
     write_models_eval(out, show_progress=show_progress, overwrite=overwrite)
     write_text_atomic(out / "dataset_info.md", dataset_info_md(splits, sorted(bop_models), delta_mm))
     dt = time.perf_counter() - t0
-    return {"out": str(out), "videos": list(ds.scene_ids), "splits": splits, "frames_written": done, "frames_skipped": skipped,
-            "models": sorted(bop_models), "seconds": dt, "seconds_models": t_models,
+    return {"out": str(out), "videos": list(ds.scene_ids), "splits": splits, "frames_written": done,
+            "frames_skipped": skipped, "models": sorted(bop_models), "seconds": dt, "seconds_models": t_models,
             "centers_mm": {k: v.tolist() for k, v in centers.items()}}
+
+
+def _write_frame(writer, renderer, f, centers: dict, bop_models: dict, delta_mm: float) -> None:
+    """One YCB-V frame into the BOP scene ``writer``: poses recentred on the model centres (mm),
+    images copied, masks and gt_info computed against its depth image."""
+    insts = [Instance(obj_id=i.obj_id, T_m2c=recentre_pose(i.T_m2c, centers[i.obj_id]), gt_id=i.gt_id)
+             for i in f.instances]
+    fb = Frame(scene_id=f.scene_id, im_id=f.im_id, camera=f.camera, instances=insts, depth_scale=f.depth_scale,
+               T_w2c=f.T_w2c)
+    depth = read_depth_mm(f.depth_path, f.depth_scale, where=f.where)
+    if depth.shape != (f.camera.height, f.camera.width):
+        raise YcbvssError(f"depth image is {depth.shape[1]}x{depth.shape[0]}, expected "
+                          f"{f.camera.width}x{f.camera.height}", f.depth_path, f.where)
+    masks, masks_visib, infos = compute_gt_info(renderer, fb, bop_models, depth, delta_mm)
+    writer.write_frame(fb, masks=masks, masks_visib=masks_visib, gt_info=infos,
+                       rgb_src=f.rgb_path, depth_src=f.depth_path)

@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
+from .io.mesh import load_geometry_mm
 from .scene import Frame, ObjectModel
 
 DELTA_MM = 15.0
@@ -74,7 +75,6 @@ def front_most_masks(renderer, K, width: int, height: int, items, masks_visib) -
 def _geometry_only(model: ObjectModel):
     """Untextured geometry in mm (no texture decoding when the mesh is not loaded yet)."""
     if model._mesh is None and model._loader is None and model.path is not None:
-        from .io.mesh import load_geometry_mm
         return load_geometry_mm(model.path, model.unit_scale)
     mesh = model.mesh
     return trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=False)

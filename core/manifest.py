@@ -18,15 +18,19 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+import trimesh
+import yaml
+from scipy.spatial import cKDTree
 
 from .errors import YcbvssError
+from .geometry.so3 import exp_so3
+from .io.mesh import diameter_mm, load_mesh_mm
 
 MANIFEST_PATH = Path(__file__).resolve().parent / "assets_manifest.yaml"
 
 
 @lru_cache(maxsize=4)
 def _load(path: str) -> dict:
-    import yaml
     p = Path(path)
     if not p.is_file():
         raise YcbvssError("missing assets manifest", p)
@@ -133,7 +137,6 @@ def verify_assets(root: str | Path, manifest: dict | None = None) -> list[tuple[
 
 # ------------------------------------------------------------------ symmetry derivation
 def _rot(axis: str, deg: float) -> np.ndarray:
-    from .geometry.so3 import exp_so3
     w = np.zeros(3)
     w["xyz".index(axis)] = np.deg2rad(deg)
     return exp_so3(w)
@@ -142,8 +145,6 @@ def _rot(axis: str, deg: float) -> np.ndarray:
 def symmetry_deviation_mm(mesh_mm, R: np.ndarray, n_samples: int = 150000, seed: int = 0,
                           _cache: dict | None = None) -> float:
     """Max distance (mm) from the rotated vertices R v to the (densely sampled) unrotated surface."""
-    import trimesh
-    from scipy.spatial import cKDTree
     key = id(mesh_mm)
     if _cache is not None and key in _cache:
         tree = _cache[key]
@@ -169,7 +170,6 @@ def find_symmetries(mesh_mm, rel_tol: float = 0.05) -> dict:
     with perpendicular flips (none occurs among the YCB-V objects at this tolerance). Returns ``{"symmetries_discrete": [16-lists], "symmetries_continuous":
     [{"axis", "offset"}], "max_dev_mm": {candidate: mm}}``.
     """
-    from .io.mesh import diameter_mm
     tol = rel_tol * diameter_mm(mesh_mm.vertices)
     cache: dict = {}
     dev = {}
@@ -213,7 +213,6 @@ def find_symmetries(mesh_mm, rel_tol: float = 0.05) -> dict:
 
 
 def _main(argv=None) -> int:
-    import yaml
     ap = argparse.ArgumentParser(description="Regenerate the computed parts of assets_manifest.yaml")
     ap.add_argument("--shared", required=True, help="the shared data root (../shared/data)")
     ap.add_argument("--what", choices=["sums", "symmetries"], default="sums")
@@ -222,8 +221,6 @@ def _main(argv=None) -> int:
     if a.what == "sums":
         print(yaml.safe_dump({"files": sample_data_sums(root)}, sort_keys=False))
         return 0
-    import trimesh
-    from .io.mesh import load_mesh_mm
     for oid, name in object_names().items():
         m = load_mesh_mm(root / "ycbv" / "models" / name / "textured.obj", 1000.0)
         m = trimesh.Trimesh(m.vertices - (m.bounds[0] + m.bounds[1]) / 2, m.faces, process=False)

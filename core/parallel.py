@@ -15,7 +15,9 @@ one-line message.
 """
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
+from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
 from typing import Callable, Iterable
 
 from .errors import YcbvssError
@@ -60,8 +62,6 @@ def run_jobs(fn: Callable, jobs: Iterable, workers: int = 1, executor: str = "lo
 
 
 def _run_local(fn, jobs, workers, results, bar, on_result) -> None:
-    import multiprocessing as mp
-    from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
     threads = max(1, _cores() // workers)
     with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=mp.get_context("spawn"),
                              initializer=_init_worker, initargs=(threads,)) as pool:
@@ -84,7 +84,8 @@ def _run_local(fn, jobs, workers, results, bar, on_result) -> None:
 
 def _run_ray(fn, jobs, address, results, bar, on_result) -> None:
     try:
-        import ray   # lazy: optional dependency
+        # lazy: optional dependency
+        import ray
     except ImportError:
         raise YcbvssError("--executor ray needs Ray: pip install 'ycbvss[ray]'") from None
     if not ray.is_initialized():

@@ -18,6 +18,8 @@ from typing import Callable, Iterator
 import numpy as np
 
 from .camera import Camera
+from .io.images import read_depth_mm, read_label, read_rgb
+from .io.mesh import load_mesh_mm, load_vertices_mm
 
 
 @dataclass
@@ -49,7 +51,6 @@ class ObjectModel:
         """The model as a ``trimesh.Trimesh`` in millimetres (loaded lazily, cached)."""
         if self._mesh is None:
             if self._loader is None:
-                from .io.mesh import load_mesh_mm
                 self._mesh = load_mesh_mm(self.path, self.unit_scale)
             else:
                 self._mesh = self._loader()
@@ -64,7 +65,6 @@ class ObjectModel:
         """All vertices as stored in the model file (no merging), (N, 3) float64, mm.
 
         These are the model points of the metrics, as bop_toolkit uses them."""
-        from .io.mesh import load_vertices_mm
         if self._mesh is not None and self.path is None:
             return np.asarray(self._mesh.vertices, dtype=np.float64)
         return load_vertices_mm(self.path, self.unit_scale)
@@ -109,17 +109,14 @@ class Frame:
 
     def load_rgb(self) -> np.ndarray:
         """RGB image (H, W, 3) uint8."""
-        from .io.images import read_rgb
         return read_rgb(self.rgb_path, where=self.where)
 
     def load_depth_mm(self) -> np.ndarray:
         """Depth (H, W) float32 in mm, 0 where invalid."""
-        from .io.images import read_depth_mm
         return read_depth_mm(self.depth_path, self.depth_scale, where=self.where)
 
     def load_label(self) -> np.ndarray:
         """Label image (H, W) uint8/uint16 with obj_id per pixel (0 = background)."""
-        from .io.images import read_label
         return read_label(self.label_path, where=self.where)
 
     @property

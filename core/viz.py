@@ -182,3 +182,12 @@ def side_by_side(images: Sequence[np.ndarray], labels: Sequence[str] | None = No
         if gap and k < len(imgs) - 1:
             panels.append(_pad_to(np.zeros((0, 0, 3), np.uint8), h, gap, background))
     return np.concatenate(panels, axis=1)
+
+
+def pyplot():
+    """``matplotlib.pyplot`` with the non-interactive Agg backend, imported on first use."""
+    # lazy: matplotlib takes ~0.9 s to import
+    import matplotlib
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    return plt

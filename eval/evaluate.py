@@ -10,15 +10,18 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import YcbvssError
+from ..geometry.symmetry import closest_symmetric_gt, continuous_steps, symmetry_transforms
+from ..io.bop import read_scene_camera, read_scene_gt, select_scene_ids
 from ..progress import progress
 from .matching import match
 from .metrics import ERROR_KEYS, pose_errors
 from .model_points import ModelPoints
-from .scores import ADD_BOUND_MM, PRJ_BOUND_PX, object_scores, overall_scores
+from .scores import ADD_BOUND_MM, PRJ_BOUND_PX, mean_finite, object_scores, overall_scores
 
 
 @dataclass
@@ -67,9 +70,6 @@ class GtArrays:
     @classmethod
     def from_bop(cls, root, split: str, models: dict | None = None, scene_ids=None) -> "GtArrays":
         """GT of a BOP split from scene_gt.json + scene_camera.json only (no images read)."""
-        from pathlib import Path
-
-        from ..io.bop import read_scene_camera, read_scene_gt, select_scene_ids
         split_dir = Path(root) / split
         all_ids = select_scene_ids(split_dir, scene_ids)
         rows, Rs, ts, Ks = [], [], [], []
@@ -173,25 +173,56 @@ def _model_points(model, k: int) -> ModelPoints:
 
 def evaluate_arrays(gt: GtArrays, est: EstArrays, models: dict, options: EvalOptions | None = None
                     ) -> EvalResult:
-    """Match estimates to GT instances and compute all errors and scores (see module doc)."""
-    from .symmetry import closest_symmetric_gt, model_symmetry_transforms
+    """Match estimates to GT instances and compute all errors and scores (see module doc).
+
+    ``gt`` (n instances) and ``est`` (m estimates): flat arrays, poses in mm; ``models``: obj_id ->
+    ObjectModel (points in mm). Stages: :func:`_match` (one estimate per GT instance, by score and
+    ADD(-S)), :func:`_instance_errors` (the (n,) error columns), :func:`_summary` (scores)."""
     opt = options or EvalOptions()
     sym_ids = _symmetric_ids(models, opt)
     missing_models = sorted(set(gt.obj_id.tolist()) - set(models))
     if missing_models:
         raise YcbvssError(f"GT has objects without a model: {missing_models}")
-    n = len(gt)
-    points: dict[int, ModelPoints] = {}
+    points = _PointsCache(models)
+    m = _match(gt, est, points, sym_ids)
+    err = _instance_errors(gt, est, m.est_for_gt, points, models, sym_ids, opt)
+    obj_ids = sorted(set(gt.obj_id.tolist()))
+    per_object = {}
+    for o in obj_ids:
+        sel = gt.obj_id == o
+        per_object[o] = object_scores({k: err[k][sel] for k in err}, opt.add_bound_mm, opt.prj_bound_px,
+                                      opt.sr_t_mm, opt.sr_r_deg)
+        per_object[o]["symmetric"] = o in sym_ids
+    names = {o: getattr(models[o], "label", str(o)) for o in obj_ids}
+    textureless = {o: bool(getattr(models[o], "textureless", False)) for o in obj_ids}
+    summary = _summary(err, per_object, names, textureless, m, len(est.obj_id), opt, sym_ids)
+    return EvalResult(err, per_object, summary, names, textureless)
 
-    def mp_of(o: int, k: int = 0) -> ModelPoints:
-        if o not in points or (k and points[o].k == 0):
-            points[o] = _model_points(models[o], k)
-        return points[o]
 
-    def cost(gt_idx, est_idx):   # ADD(-S) between the estimates and GT instances of one group
+class _PointsCache:
+    """One :class:`ModelPoints` per object, built on first use; rebuilt with the ADD-S candidate
+    fast path (``k`` > 0) when that is asked for after a plain one."""
+
+    def __init__(self, models: dict):
+        self.models = models
+        self.points: dict[int, ModelPoints] = {}
+
+    def get(self, o: int, k: int = 0) -> ModelPoints:
+        if o not in self.points or (k and self.points[o].k == 0):
+            self.points[o] = _model_points(self.models[o], k)
+        return self.points[o]
+
+    def drop(self, o: int) -> None:
+        self.points.pop(o, None)
+
+
+def _match(gt: GtArrays, est: EstArrays, points: _PointsCache, sym_ids: set):
+    """:func:`ycbvss.eval.matching.match` with the ADD(-S) [mm] between the estimates and GT
+    instances of one (image, object) group as the cost; warns about ignored estimates."""
+    def cost(gt_idx, est_idx):
         o = int(gt.obj_id[gt_idx[0]])
         ei, gi = np.repeat(est_idx, len(gt_idx)), np.tile(gt_idx, len(est_idx))
-        e = pose_errors(est.R[ei], est.t[ei], gt.R[gi], gt.t[gi], gt.K[gi], mp_of(o),
+        e = pose_errors(est.R[ei], est.t[ei], gt.R[gi], gt.t[gi], gt.K[gi], points.get(o),
                         with_adds=o in sym_ids)
         return (e["adds_mm"] if o in sym_ids else e["add_mm"]).reshape(len(est_idx), len(gt_idx))
 
@@ -203,23 +234,29 @@ def evaluate_arrays(gt: GtArrays, est: EstArrays, models: dict, options: EvalOpt
     if m.n_groups_surplus:
         warnings.warn(f"{m.n_groups_surplus} (image, object) pair(s) had more estimates than GT "
                       f"instances: kept the highest-scored ({m.n_est_surplus} estimate(s) ignored)")
+    return m
 
+
+def _instance_errors(gt: GtArrays, est: EstArrays, est_for_gt: np.ndarray, points: _PointsCache, models: dict,
+                     sym_ids: set, opt: EvalOptions) -> dict[str, np.ndarray]:
+    """The (n,) columns of :data:`ERROR_COLUMNS` for the n GT instances; ``est_for_gt`` (n,) index
+    of each instance's estimate or -1 (its errors stay NaN). Errors in mm, deg, px."""
+    n = len(gt)
     err = {k: np.full(n, np.nan) for k in ERROR_COLUMNS}
     for k in ("scene_id", "im_id", "obj_id", "gt_id"):
         err[k] = getattr(gt, k).copy()
     err["symmetric"] = np.isin(gt.obj_id, list(sym_ids)).astype(np.int64)
-    matched = m.est_for_gt >= 0
-    err["est_score"][matched] = est.score[m.est_for_gt[matched]]
-    obj_ids = sorted(set(gt.obj_id.tolist()))
-    for o in progress(obj_ids, desc="errors", unit="obj"):
+    matched = est_for_gt >= 0
+    err["est_score"][matched] = est.score[est_for_gt[matched]]
+    for o in progress(sorted(set(gt.obj_id.tolist())), desc="errors", unit="obj"):
         gi = np.flatnonzero((gt.obj_id == o) & matched)
         if len(gi) == 0:
             continue
-        ei = m.est_for_gt[gi]
+        ei = est_for_gt[gi]
         Rg, tg = gt.R[gi], gt.t[gi]
-        mp = mp_of(o, opt.nn_k)
+        mp = points.get(o, opt.nn_k)
         if opt.use_symmetries:
-            syms = model_symmetry_transforms(models[o], opt.sym_step_frac)
+            syms = symmetry_transforms(models[o], continuous_steps(opt.sym_step_frac))
             Rg, tg, _ = closest_symmetric_gt(est.R[ei], est.t[ei], Rg, tg, syms, mp.points)
         with_adds = opt.adds_for == "all" or o in sym_ids
         e = pose_errors(est.R[ei], est.t[ei], Rg, tg, gt.K[gi], mp, with_adds=with_adds)
@@ -227,36 +264,30 @@ def evaluate_arrays(gt: GtArrays, est: EstArrays, models: dict, options: EvalOpt
             err[k][gi] = e[k]
         err["te_mm"][gi] = np.linalg.norm(est.t[ei] - tg, axis=1)
         err["add_s_mm"][gi] = e["adds_mm"] if o in sym_ids else e["add_mm"]
-        points.pop(o, None)                      # free the per-object index
-    per_object = {}
-    for o in obj_ids:
-        sel = gt.obj_id == o
-        per_object[o] = object_scores({k: err[k][sel] for k in err}, opt.add_bound_mm, opt.prj_bound_px,
-                                      opt.sr_t_mm, opt.sr_r_deg)
-        per_object[o]["symmetric"] = o in sym_ids
-    names = {o: getattr(models[o], "label", str(o)) for o in obj_ids}
-    textureless = {o: bool(getattr(models[o], "textureless", False)) for o in obj_ids}
-    overall = overall_scores(per_object)
-    all_means = {f"mean_{k}": _nanmean(err[k]) for k in
+        points.drop(o)                      # free the per-object index
+    return err
+
+
+def _summary(err: dict, per_object: dict, names: dict, textureless: dict, m, n_est: int, opt: EvalOptions,
+             sym_ids: set) -> dict:
+    """The JSON-ready summary: overall scores, means over all instances, per-object scores, counts
+    and the options used."""
+    n = len(err["obj_id"])
+    matched = m.est_for_gt >= 0
+    obj_ids = sorted(per_object)
+    all_means = {f"mean_{k}": mean_finite(err[k]) for k in
                  ("tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "adds_mm", "add_s_mm")}
-    summary = {
-        **overall,
+    return {
+        **overall_scores(per_object),
         "n_objects": len(obj_ids),
         "all_instances": {"n_gt": int(n), "n_missing": int((~matched).sum()), **all_means},
         "per_object": {str(o): {"name": names[o], "textureless": textureless[o], **per_object[o]}
                        for o in obj_ids},
-        "counts": {"n_gt": int(n), "n_estimates": int(len(est.obj_id)), "n_matched": int(matched.sum()),
+        "counts": {"n_gt": int(n), "n_estimates": int(n_est), "n_matched": int(matched.sum()),
                    "n_gt_missing": int((~matched).sum()), "n_est_no_image": m.n_est_no_image,
                    "n_est_no_object": m.n_est_no_object, "n_est_surplus": m.n_est_surplus},
         "options": {**asdict(opt), "symmetric_obj_ids": sorted(sym_ids)},
     }
-    return EvalResult(err, per_object, summary, names, textureless)
-
-
-def _nanmean(x) -> float:
-    x = np.asarray(x, dtype=np.float64)
-    x = x[np.isfinite(x)]
-    return float(x.mean()) if x.size else float("nan")
 
 
 def evaluate(dataset, estimates, options: EvalOptions | None = None, scene_ids=None) -> EvalResult:

@@ -8,7 +8,7 @@ points ``pts`` are (P, 3) mm in the model frame (``ObjectModel.vertices_mm``).
 - :func:`te_mm` ``||t_est - t_gt||``, mm.
 - :func:`re_deg` angle of ``R_est R_gt^T``, degrees in [0, 180].
 - :func:`prj_px` mean 2D distance of the model points projected with both poses (pixels);
-  a compiled numba kernel when numba is installed, numpy blocks otherwise.
+  one compiled numba kernel (:mod:`ycbvss.eval.nn_kernel`) for the whole batch.
 - :func:`add_mm` ADD: mean distance between corresponding transformed model points (mm).
 - :func:`adds_mm` ADD-S: for every point in the GT pose, distance to the nearest point in the
   estimated pose, averaged (= bop_toolkit ``adi``). Uses one :class:`ModelPoints` index per object
@@ -25,10 +25,8 @@ from .model_points import ModelPoints
 
 
 def _prj_kernel():
-    """numba PRJ kernel when ModelPoints' compiled path is available (numba imports), else None."""
-    from .model_points import compiled_kernel
-    if compiled_kernel() is None:
-        return None
+    """The compiled PRJ kernel, imported on first use."""
+    # lazy: numba kernels compile/load on import
     from .nn_kernel import prj_kernel
     return prj_kernel
 
@@ -104,7 +102,7 @@ def adds_mm(R_est, t_est, R_gt, t_gt, pts, poses_per_block: int = 16):
     return add_adds_mm(R_est, t_est, R_gt, t_gt, pts, with_adds=True, poses_per_block=poses_per_block)[1]
 
 
-def prj_px(R_est, t_est, R_gt, t_gt, K, pts, poses_per_block: int = 16):
+def prj_px(R_est, t_est, R_gt, t_gt, K, pts):
     """PRJ [px]: mean 2D distance between the model points projected with the estimated and the
     GT pose through the intrinsics ``K`` (3, 3) or (N, 3, 3). Points behind the camera are not
     special-cased (as bop_toolkit ``proj``)."""
@@ -115,24 +113,8 @@ def prj_px(R_est, t_est, R_gt, t_gt, K, pts, poses_per_block: int = 16):
     # fold K into the pose: K (R x + t) = (K R) x + K t
     KRe, KRg = K @ R_est, K @ R_gt
     Kte, Ktg = (K @ t_est[..., None])[..., 0], (K @ t_gt[..., None])[..., 0]
-    kernel = _prj_kernel()
-    if kernel is not None:
-        c = np.ascontiguousarray
-        out = kernel(c(pts), c(KRe), c(Kte), c(KRg), c(Ktg))
-        return out[0] if single else out
-    out = np.empty(n)
-    P = len(pts)
-    for s in range(0, n, poses_per_block):
-        sl = slice(s, min(n, s + poses_per_block))
-        m = sl.stop - sl.start
-        # one matrix product for both poses of the block: (P, 3) @ (3, 2 m 3) -> (P, m, 2, 3)
-        W = np.stack([KRe[sl], KRg[sl]], axis=1).transpose(3, 0, 1, 2).reshape(3, m * 6)
-        q = (pts @ W).reshape(P, m, 2, 3)
-        q += np.stack([Kte[sl], Ktg[sl]], axis=1)[None]
-        iz = 1.0 / q[..., 2]                                        # (P, m, 2)
-        du = q[..., 0, 0] * iz[..., 0] - q[..., 1, 0] * iz[..., 1]
-        dv = q[..., 0, 1] * iz[..., 0] - q[..., 1, 1] * iz[..., 1]
-        out[sl] = np.sqrt(du * du + dv * dv).mean(axis=0)
+    c = np.ascontiguousarray
+    out = _prj_kernel()(c(pts), c(KRe), c(Kte), c(KRg), c(Ktg))
     return out[0] if single else out
 
 
@@ -148,5 +130,14 @@ def pose_errors(R_est, t_est, R_gt, t_gt, K, points: ModelPoints | np.ndarray, w
     te = te_axes_mm(t_est, t_gt)
     add, adds = add_adds_mm(R_est, t_est, R_gt, t_gt, mp, with_adds=with_adds, poses_per_block=poses_per_block)
     return {"tx_mm": te[:, 0], "ty_mm": te[:, 1], "tz_mm": te[:, 2], "r_deg": re_deg(R_est, R_gt),
-            "prj_px": prj_px(R_est, t_est, R_gt, t_gt, K, mp.points, poses_per_block),
+            "prj_px": prj_px(R_est, t_est, R_gt, t_gt, K, mp.points),
             "add_mm": np.atleast_1d(add), "adds_mm": np.atleast_1d(adds)}
+
+
+def pose_errors_4x4(T_est: np.ndarray, T_gt: np.ndarray, K: np.ndarray, points: ModelPoints | np.ndarray,
+                    with_adds: bool = False) -> dict[str, float]:
+    """:func:`pose_errors` of ONE pose pair given as 4x4 object-to-camera matrices (mm): floats
+    keyed by :data:`ERROR_KEYS` (``adds_mm`` NaN unless ``with_adds``)."""
+    T_est, T_gt = _f64(T_est), _f64(T_gt)
+    e = pose_errors(T_est[:3, :3], T_est[:3, 3], T_gt[:3, :3], T_gt[:3, 3], K, points, with_adds=with_adds)
+    return {k: float(v[0]) for k, v in e.items()}

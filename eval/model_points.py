@@ -18,6 +18,7 @@ errors) are answered by the KD-tree. Results equal a brute-force search to round
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 
 class ModelPoints:
@@ -25,8 +26,8 @@ class ModelPoints:
 
     ``k``: candidates per point for the scipy fast path (0 disables it). ``workers``: threads for
     KD-tree queries (-1 = all cores). ``backend``: "numba" (compiled kernel, all cores),
-    "scipy" (BLAS candidate path + cKDTree) or "auto" (numba when it imports). ``grid``: with
-    numba, answer uncertified queries from an exact voxel grid (:mod:`ycbvss.eval.nn_grid`) when
+    "scipy" (BLAS candidate path + cKDTree; the independent reference) or "auto" (= numba).
+    ``grid``: with numba, answer uncertified queries from an exact voxel grid (:mod:`ycbvss.eval.nn_grid`) when
     a call has many of them (large, tracker-level errors); same numbers."""
 
     def __init__(self, points: np.ndarray, k: int = 16, workers: int = -1, backend: str = "auto",
@@ -45,18 +46,12 @@ class ModelPoints:
         self.grid = bool(grid)
         if backend not in ("auto", "numba", "scipy"):
             raise ValueError(f"unknown backend {backend!r}")
-        if backend != "scipy" and compiled_kernel() is not None:
-            self.backend = "numba"
-        elif backend == "numba":
-            raise ImportError("backend='numba' needs the numba package")
-        else:
-            self.backend = "scipy"
+        self.backend = "scipy" if backend == "scipy" else "numba"
         self.stats = {"certified": 0, "tree": 0}   # point queries answered by each path
 
     @property
     def tree(self):
         if self._tree is None:
-            from scipy.spatial import cKDTree
             self._tree = cKDTree(self.points)
         return self._tree
 
@@ -112,7 +107,6 @@ class ModelPoints:
         if self._nb is None:
             tp, lo, hi, child, span, depth = build_kdtree(self.points, NB_LEAFSIZE)
             kc = min(NB_CANDIDATES, self.n - 1)
-            from scipy.spatial import cKDTree
             dist, idx = cKDTree(tp).query(tp, k=kc + 2)
             dist, idx = dist.reshape(self.n, -1), idx.reshape(self.n, -1)
             cand = np.ascontiguousarray(idx[:, 1:kc + 1], dtype=np.int64)
@@ -122,15 +116,15 @@ class ModelPoints:
 
     def _grid_data(self):
         if self._grid is None:
-            from .nn_grid import build_grid      # lazy: compiled (numba) module
+            # lazy: numba kernels compile/load on import
+            from .nn_grid import build_grid
             self._grid = build_grid(self._numba_data()[0])
         return self._grid
 
     def _add_adds_grid(self, A, b):
-        from .nn_grid import add_adds_grid_kernel      # lazy: compiled (numba) module
         tp, tpT, cand, rho, lo, hi, child, span, depth = self._numba_data()
-        add, adds, n_grid, n_tree = add_adds_grid_kernel(tp, A, b, True, cand, rho, tpT, lo, hi, child, span,
-                                                         depth, *self._grid_data())
+        add, adds, n_grid, n_tree = compiled_kernel()(tp, A, b, True, cand, rho, tpT, lo, hi, child, span,
+                                                      depth, *self._grid_data())
         ng, nt = int(n_grid.sum()), int(n_tree.sum())
         self.stats["grid"] = self.stats.get("grid", 0) + ng
         self.stats["tree"] += nt
@@ -161,8 +155,8 @@ class ModelPoints:
         if len(A) == 0:
             self._last_tree = 0
             return np.empty(0), (np.empty(0) if with_adds else None)
-        add, adds, n_tree = compiled_kernel()(tp, A, b, bool(with_adds), cand, rho, tpT, lo, hi, child, span,
-                                              depth)
+        add, adds, _, n_tree = compiled_kernel()(tp, A, b, bool(with_adds), cand, rho, tpT, lo, hi, child, span,
+                                                 depth, *no_grid())
         if not with_adds:
             return add, None
         nt = int(n_tree.sum())
@@ -203,7 +197,7 @@ class ModelPoints:
 # transforms, computes ADD and answers every ADD-S nearest-neighbour query of a batch of poses
 # (prange over poses). Each query starts with the bound ||y_i - x_i|| (x_i itself is a model
 # point), descends nearer child first and prunes nodes whose box is farther than the best so far:
-# exact nearest neighbour, no approximation. Used when numba imports; otherwise the scipy path.
+# exact nearest neighbour, no approximation. The default backend; the scipy path is the reference.
 
 def build_kdtree(points: np.ndarray, leafsize: int = 8):
     """Balanced KD-tree (median split on the widest axis) as flat arrays:
@@ -237,18 +231,19 @@ def build_kdtree(points: np.ndarray, leafsize: int = 8):
 
 
 def compiled_kernel():
-    """The numba ADD/ADD-S kernel (:mod:`ycbvss.eval.nn_kernel`), or None when numba is missing."""
-    global _KERNEL
-    if _KERNEL is None:
-        try:
-            from .nn_kernel import add_adds_kernel
-            _KERNEL = add_adds_kernel
-        except ImportError:
-            _KERNEL = False
-    return _KERNEL or None
+    """The numba ADD/ADD-S kernel (:mod:`ycbvss.eval.nn_kernel`), imported on first use."""
+    # lazy: numba kernels compile/load on import
+    from .nn_kernel import add_adds_kernel
+    return add_adds_kernel
 
 
-_KERNEL = None
+def no_grid() -> tuple:
+    """The kernel's grid arguments that switch the grid off."""
+    # lazy: numba kernels compile/load on import
+    from .nn_kernel import NO_GRID
+    return NO_GRID
+
+
 GRID_MIN_QUERIES = 4_000_000   # uncertified ADD-S queries in one call from which the exact voxel grid pays off
 GRID_PROBE_POSES = 32          # poses run through the KD-tree kernel first to measure the uncertified fraction
 NB_LEAFSIZE = 64         # leaf size of the numba KD-tree: measured 8..128 on 5000-point models, 32-64 best

@@ -13,9 +13,9 @@ entry with ``|p - c| - |y - c| > best`` cannot be nearer than the best distance 
 So the answer is exact (equal to a brute-force search up to rounding of the final distance).
 
 Cells farther than the shell from the surface, and cells whose list would exceed ``max_list``
-points, get no list: queries there fall back to the KD-tree (:mod:`ycbvss.eval.nn_kernel`).
-Compiled with numba (imported lazily by :class:`ycbvss.eval.model_points.ModelPoints`, which uses
-the grid for large ADD-S batches only: its build costs about 1.5 s for an 8k-vertex model).
+points, get no list: queries there fall back to the KD-tree (:func:`ycbvss.eval.nn_kernel.add_adds_kernel`
+queries the grid with :func:`grid_nn2`). Compiled with numba (imported lazily by
+:class:`ycbvss.eval.model_points.ModelPoints`, which uses the grid for large ADD-S batches only: its build costs about 1.5 s for an 8k-vertex model).
 
 Measured (8k-vertex YCB meshes, 400 poses 3 deg / 10, 10, 20 mm off, busy 2-core machine): the
 query part 1.8-2.5x faster than the KD-tree kernel, 97-100 % of the uncertified queries answered
@@ -27,73 +27,74 @@ import math
 
 import numpy as np
 from numba import njit, prange
+from scipy.spatial import cKDTree
 
-from .nn_kernel import _nn2
+
+
+@njit(cache=True, inline="always")
+def _cell_reach(c, origin, s, ny, nz, r):
+    """Cell ``c``'s integer coordinates, its centre (mm), ``r^2`` and the reach in cells ``ceil(r / s)``
+    of a ball of radius ``r`` about the centre."""
+    cz = c % nz
+    cy = (c // nz) % ny
+    cx = c // (ny * nz)
+    x0 = origin[0] + (cx + 0.5) * s
+    x1 = origin[1] + (cy + 0.5) * s
+    x2 = origin[2] + (cz + 0.5) * s
+    return cx, cy, cz, x0, x1, x2, r * r, int(math.ceil(r / s))
+
+
+@njit(cache=True, inline="always")
+def _dist2(y0, y1, y2, pts, p):
+    """Squared distance of ``y`` to the model point ``pts[p]`` (mm^2)."""
+    e0 = y0 - pts[p, 0]
+    e1 = y1 - pts[p, 1]
+    e2 = y2 - pts[p, 2]
+    return e0 * e0 + e1 * e1 + e2 * e2
+
+
+@njit(cache=True)
+def _ball_points(c, tp, origin, s, nx, ny, nz, r, bstart, border, gidx, gdist, n0):
+    """Number of model points within ``r`` (mm) of cell ``c``'s centre, found through the point
+    buckets ``bstart``/``border``; with a non-empty ``gidx`` they are also written (index, distance)
+    at positions ``n0, n0 + 1, ...`` of ``gidx``/``gdist``."""
+    cx, cy, cz, x0, x1, x2, r2, k = _cell_reach(c, origin, s, ny, nz, r)
+    write = gidx.shape[0] > 0
+    n = n0
+    for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
+        for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
+            for iz in range(max(0, cz - k), min(nz, cz + k + 1)):
+                b = (ix * ny + iy) * nz + iz
+                for q in range(bstart[b], bstart[b + 1]):
+                    p = border[q]
+                    d2 = _dist2(x0, x1, x2, tp, p)
+                    if d2 <= r2:
+                        if write:
+                            gidx[n] = p
+                            gdist[n] = math.sqrt(d2)
+                        n += 1
+    return n - n0
 
 
 @njit(cache=True, parallel=True)
 def _count(tp, origin, s, nx, ny, nz, dc, shell, h, eps, bstart, border, max_list, counts):
-    ncell = nx * ny * nz
-    for c in prange(ncell):
+    none_i, none_f = np.zeros(0, np.int64), np.zeros(0)
+    for c in prange(nx * ny * nz):
         counts[c] = 0
         if dc[c] > shell:
             continue
-        cz = c % nz
-        cy = (c // nz) % ny
-        cx = c // (ny * nz)
-        x0 = origin[0] + (cx + 0.5) * s
-        x1 = origin[1] + (cy + 0.5) * s
-        x2 = origin[2] + (cz + 0.5) * s
-        r = dc[c] + 2.0 * h + eps
-        r2 = r * r
-        k = int(math.ceil(r / s))
-        n = 0
-        for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
-            for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
-                for iz in range(max(0, cz - k), min(nz, cz + k + 1)):
-                    b = (ix * ny + iy) * nz + iz
-                    for q in range(bstart[b], bstart[b + 1]):
-                        p = border[q]
-                        e0 = tp[p, 0] - x0
-                        e1 = tp[p, 1] - x1
-                        e2 = tp[p, 2] - x2
-                        if e0 * e0 + e1 * e1 + e2 * e2 <= r2:
-                            n += 1
+        n = _ball_points(c, tp, origin, s, nx, ny, nz, dc[c] + 2.0 * h + eps, bstart, border, none_i, none_f, 0)
         counts[c] = n if n <= max_list else 0
 
 
 @njit(cache=True, parallel=True)
 def _fill(tp, origin, s, nx, ny, nz, dc, h, eps, bstart, border, offsets, gidx, gdist):
-    ncell = nx * ny * nz
-    for c in prange(ncell):
+    for c in prange(nx * ny * nz):
         a = offsets[c]
         e = offsets[c + 1]
         if e == a:
             continue
-        cz = c % nz
-        cy = (c // nz) % ny
-        cx = c // (ny * nz)
-        x0 = origin[0] + (cx + 0.5) * s
-        x1 = origin[1] + (cy + 0.5) * s
-        x2 = origin[2] + (cz + 0.5) * s
-        r = dc[c] + 2.0 * h + eps
-        r2 = r * r
-        k = int(math.ceil(r / s))
-        n = a
-        for ix in range(max(0, cx - k), min(nx, cx + k + 1)):
-            for iy in range(max(0, cy - k), min(ny, cy + k + 1)):
-                for iz in range(max(0, cz - k), min(nz, cz + k + 1)):
-                    b = (ix * ny + iy) * nz + iz
-                    for q in range(bstart[b], bstart[b + 1]):
-                        p = border[q]
-                        e0 = tp[p, 0] - x0
-                        e1 = tp[p, 1] - x1
-                        e2 = tp[p, 2] - x2
-                        d2 = e0 * e0 + e1 * e1 + e2 * e2
-                        if d2 <= r2:
-                            gidx[n] = p
-                            gdist[n] = math.sqrt(d2)
-                            n += 1
+        _ball_points(c, tp, origin, s, nx, ny, nz, dc[c] + 2.0 * h + eps, bstart, border, gidx, gdist, a)
         order = np.argsort(gdist[a:e])
         gi = gidx[a:e][order].copy()
         gd = gdist[a:e][order].copy()
@@ -104,7 +105,6 @@ def _fill(tp, origin, s, nx, ny, nz, dc, h, eps, bstart, border, offsets, gidx, 
 def build_grid(tp: np.ndarray, max_cells: int = 1 << 15, shell_frac: float = 0.3, max_list: int = 4096):
     """Grid arrays for :func:`grid_nn2` (see module doc). ``tp`` (P, 3) model points (any order;
     list entries index into it). Shell = ``shell_frac`` x the bounding-box diagonal."""
-    from scipy.spatial import cKDTree
     tp = np.ascontiguousarray(tp, dtype=np.float64)
     lo, hi = tp.min(axis=0), tp.max(axis=0)
     diag = float(np.linalg.norm(hi - lo))
@@ -164,74 +164,8 @@ def grid_nn2(y0, y1, y2, best, tp, geo, dims, offsets, gidx, gdist):
     for k in range(a, e):
         if gdist[k] - dy > bd:
             break
-        p = gidx[k]
-        e0 = y0 - tp[p, 0]
-        e1 = y1 - tp[p, 1]
-        e2 = y2 - tp[p, 2]
-        d = e0 * e0 + e1 * e1 + e2 * e2
+        d = _dist2(y0, y1, y2, tp, gidx[k])
         if d < best:
             best = d
             bd = math.sqrt(best)
     return best
-
-
-@njit(cache=True, parallel=True, fastmath=False)
-def add_adds_grid_kernel(pts, A, b, with_adds, cand, rho, tp, lo, hi, child, span, depth, geo, dims, offsets,
-                         gidx, gdist):
-    """:func:`ycbvss.eval.nn_kernel.add_adds_kernel` with the grid between the certificate and
-    the KD-tree: an uncertified point is answered from its cell's list when it has one.
-    Returns (add, adds, n_grid, n_tree)."""
-    n = A.shape[0]
-    P = pts.shape[0]
-    kc = cand.shape[1]
-    add = np.empty(n)
-    adds = np.empty(n)
-    n_tree = np.zeros(n, np.int64)
-    n_grid = np.zeros(n, np.int64)
-    for j in prange(n):
-        stack_n = np.empty(2 * depth + 4, np.int64)
-        stack_d = np.empty(2 * depth + 4)
-        a00, a01, a02 = A[j, 0, 0], A[j, 0, 1], A[j, 0, 2]
-        a10, a11, a12 = A[j, 1, 0], A[j, 1, 1], A[j, 1, 2]
-        a20, a21, a22 = A[j, 2, 0], A[j, 2, 1], A[j, 2, 2]
-        b0, b1, b2 = b[j, 0], b[j, 1], b[j, 2]
-        sa = 0.0
-        ss = 0.0
-        nt = 0
-        ng = 0
-        for i in range(P):
-            x0, x1, x2 = pts[i, 0], pts[i, 1], pts[i, 2]
-            y0 = a00 * x0 + a01 * x1 + a02 * x2 + b0
-            y1 = a10 * x0 + a11 * x1 + a12 * x2 + b1
-            y2 = a20 * x0 + a21 * x1 + a22 * x2 + b2
-            e0 = y0 - x0
-            e1 = y1 - x1
-            e2 = y2 - x2
-            d2 = e0 * e0 + e1 * e1 + e2 * e2
-            delta = np.sqrt(d2)
-            sa += delta
-            if with_adds:
-                best = d2
-                for q in range(kc):
-                    c = cand[i, q]
-                    e0 = y0 - pts[c, 0]
-                    e1 = y1 - pts[c, 1]
-                    e2 = y2 - pts[c, 2]
-                    d = e0 * e0 + e1 * e1 + e2 * e2
-                    if d < best:
-                        best = d
-                r = rho[i] - delta
-                if r <= 0.0 or best > r * r * (1.0 - 1e-12):
-                    g = grid_nn2(y0, y1, y2, best, pts, geo, dims, offsets, gidx, gdist)
-                    if g >= 0.0:
-                        best = g
-                        ng += 1
-                    else:
-                        best = _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d)
-                        nt += 1
-                ss += np.sqrt(best)
-        add[j] = sa / P
-        adds[j] = ss / P
-        n_tree[j] = nt
-        n_grid[j] = ng
-    return add, adds, n_grid, n_tree

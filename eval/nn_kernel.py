@@ -1,16 +1,23 @@
 """Compiled (numba) kernels of the pose-error metrics; imported lazily by
-:func:`ycbvss.eval.model_points.compiled_kernel` (the scipy/numpy paths are used when numba is
-missing). Module-level functions so numba's on-disk cache (``cache=True``) works.
+:class:`ycbvss.eval.model_points.ModelPoints` and :func:`ycbvss.eval.metrics.prj_px` (numba is a
+required dependency; the import is deferred for its start-up cost). Module-level functions so
+numba's on-disk cache (``cache=True``) works.
 
 - :func:`add_adds_kernel` ADD and exact ADD-S of a batch of relative transforms against ONE
   object's KD-tree (built once in the model frame, see ``model_points.build_kdtree``): per point
-  the certified candidate list first, the tree only when the certificate fails; prange over poses.
+  the certified candidate list first, then (optionally) the exact voxel grid of
+  :mod:`ycbvss.eval.nn_grid`, the tree only when both fail; prange over poses.
 - :func:`prj_kernel` mean 2D reprojection distance, prange over poses.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit, prange
+
+from .nn_grid import _dist2, grid_nn2
+
+# the "no grid" arguments of add_adds_kernel (an empty offsets array switches the grid off)
+NO_GRID = (np.zeros(5), np.zeros(3, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
 
 
 @njit(cache=True, inline="always")
@@ -59,16 +66,30 @@ def _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d):
     return best
 
 
+@njit(cache=True, inline="always")
+def _candidates_best(y0, y1, y2, best, i, pts, cand):
+    """Smallest squared distance of ``y`` to point i's candidate points, starting from ``best``."""
+    for q in range(cand.shape[1]):
+        d = _dist2(y0, y1, y2, pts, cand[i, q])
+        if d < best:
+            best = d
+    return best
+
+
 @njit(cache=True, parallel=True, fastmath=False)
-def add_adds_kernel(pts, A, b, with_adds, cand, rho, tp, lo, hi, child, span, depth):
+def add_adds_kernel(pts, A, b, with_adds, cand, rho, tp, lo, hi, child, span, depth, geo, dims, offsets,
+                    gidx, gdist):
     """pts (P, 3) in tree order; cand (P, k) indices into pts of each point's k nearest
-    other points; rho (P,) distance to the nearest point outside them. Returns (add, adds)."""
+    other points; rho (P,) distance to the nearest point outside them; the grid arrays of
+    :func:`ycbvss.eval.nn_grid.build_grid` or :data:`NO_GRID`. Returns (add, adds, n_grid, n_tree),
+    (n,) each: mean distances [mm] and the point queries answered by the grid / the tree."""
     n = A.shape[0]
     P = pts.shape[0]
-    kc = cand.shape[1]
+    use_grid = offsets.shape[0] > 0
     add = np.empty(n)
     adds = np.empty(n)
     n_tree = np.zeros(n, np.int64)
+    n_grid = np.zeros(n, np.int64)
     for j in prange(n):
         stack_n = np.empty(2 * depth + 4, np.int64)
         stack_d = np.empty(2 * depth + 4)
@@ -79,6 +100,7 @@ def add_adds_kernel(pts, A, b, with_adds, cand, rho, tp, lo, hi, child, span, de
         sa = 0.0
         ss = 0.0
         nt = 0
+        ng = 0
         for i in range(P):
             x0, x1, x2 = pts[i, 0], pts[i, 1], pts[i, 2]
             y0 = a00 * x0 + a01 * x1 + a02 * x2 + b0
@@ -91,26 +113,24 @@ def add_adds_kernel(pts, A, b, with_adds, cand, rho, tp, lo, hi, child, span, de
             delta = np.sqrt(d2)
             sa += delta
             if with_adds:
-                best = d2
                 # best of the candidates (exact nearest if certified, else a tight bound)
-                for q in range(kc):
-                    c = cand[i, q]
-                    e0 = y0 - pts[c, 0]
-                    e1 = y1 - pts[c, 1]
-                    e2 = y2 - pts[c, 2]
-                    d = e0 * e0 + e1 * e1 + e2 * e2
-                    if d < best:
-                        best = d
+                best = _candidates_best(y0, y1, y2, d2, i, pts, cand)
                 # every point outside cand[i] is at least rho_i - delta_i away from y
                 r = rho[i] - delta
                 if r <= 0.0 or best > r * r * (1.0 - 1e-12):
-                    best = _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d)
-                    nt += 1
+                    g = grid_nn2(y0, y1, y2, best, pts, geo, dims, offsets, gidx, gdist) if use_grid else -1.0
+                    if g >= 0.0:
+                        best = g
+                        ng += 1
+                    else:
+                        best = _nn2(y0, y1, y2, best, tp, lo, hi, child, span, stack_n, stack_d)
+                        nt += 1
                 ss += np.sqrt(best)
         add[j] = sa / P
         adds[j] = ss / P
         n_tree[j] = nt
-    return add, adds, n_tree
+        n_grid[j] = ng
+    return add, adds, n_grid, n_tree
 
 
 @njit(cache=True, parallel=True, fastmath=False)

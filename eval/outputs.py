@@ -14,7 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import write_json_atomic, write_text_atomic
+from .curves import plot_curves
 from .evaluate import ERROR_COLUMNS, EvalResult
+from .symmetric_sets import PRESETS, header_label, parse_symmetric
 from .tables import Table, error_table, score_table, to_markdown, write_table
 
 _INT_COLS = {"scene_id", "im_id", "obj_id", "gt_id", "symmetric"}
@@ -71,14 +73,12 @@ def result_error_table(result: EvalResult, all_from: str = "instances", extra_ro
 
 def _sym_label(result: EvalResult) -> str:
     """The ADD-S set's name; derived from the ids actually used when they are not the named preset's."""
-    from .symmetric_sets import PRESETS, parse_symmetric
     o = result.summary.get("options", {})
     label, ids = o.get("symmetric_set", "paper"), tuple(sorted(o.get("symmetric_obj_ids", ())))
     return label if PRESETS.get(label) == ids else parse_symmetric([str(i) for i in ids])[1]
 
 
 def _sym_caption(result: EvalResult) -> str:
-    from .symmetric_sets import header_label
     return header_label(_sym_label(result), result.summary.get("options", {}).get("symmetric_obj_ids", ()))
 
 
@@ -91,7 +91,6 @@ def result_score_table(result: EvalResult, caption: str = "") -> Table:
 
 def write_outputs(result: EvalResult, out_dir: str | Path, curves: bool = True) -> dict[str, Path]:
     """Write all outputs into ``out_dir``; returns name -> path."""
-    from .curves import plot_curves
     out_dir = Path(out_dir)
     paths = {}
     paths["errors.csv"] = out_dir / "errors.csv"

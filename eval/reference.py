@@ -6,6 +6,7 @@ estimate-posed points for ADD-S (``adi``), project with K for PRJ. Never use the
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 
 def _posed(R, t, pts):
@@ -17,7 +18,6 @@ def add_ref(R_est, t_est, R_gt, t_gt, pts) -> float:
 
 
 def adds_ref(R_est, t_est, R_gt, t_gt, pts) -> float:
-    from scipy.spatial import cKDTree
     pe, pg = _posed(R_est, t_est, pts), _posed(R_gt, t_gt, pts)
     return float(cKDTree(pe).query(pg, k=1)[0].mean())
 

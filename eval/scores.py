@@ -47,7 +47,8 @@ def accuracy_curve(errors, thresholds) -> np.ndarray:
     return np.searchsorted(e, thr, side="right") / e.size * 100.0
 
 
-def _mean_finite(x) -> float:
+def mean_finite(x) -> float:
+    """Mean of the finite entries (NaN = no estimate and inf = missed are left out); NaN if none."""
     x = np.asarray(x, dtype=np.float64)
     x = x[np.isfinite(x)]
     return float(x.mean()) if x.size else float("nan")
@@ -74,7 +75,7 @@ def object_scores(err: dict[str, np.ndarray], add_bound_mm: float = ADD_BOUND_MM
                sr_5cm5deg=success_rate(err["te_mm"], err["r_deg"], 50.0, 5.0))
     for k in MEAN_KEYS:
         if k in err:
-            out[f"mean_{k}"] = _mean_finite(err[k])
+            out[f"mean_{k}"] = mean_finite(err[k])
     return out
 
 

@@ -11,13 +11,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ycbvss.errors import YcbvssError
-from ycbvss.geometry.se3 import interpolate_T, inv_T
-from ycbvss.geometry.so3 import is_rotation, rotation_angle_deg
+from ..errors import YcbvssError
+from ..geometry.se3 import interpolate_T, inv_T
+from ..geometry.so3 import is_rotation, rotation_angle_deg
+from ..geometry.symmetry import symmetry_transforms
 
 from .edge import edge_field, gradient_magnitude
 from .jacobians import backproject_px
-from .init import initialise, sample_model_points, symmetry_transforms
+from .init import initialise, sample_model_points
 from .matching import FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow
 from .problem import BundleProblem, View
 from .solver import SolverOptions, covariance, run_lm

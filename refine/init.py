@@ -10,36 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ycbvss.geometry.se3 import inv_T
-from ycbvss.geometry.so3 import exp_so3, rotation_angle_deg
-
+from ..geometry.se3 import inv_T
+from ..geometry.so3 import rotation_angle_deg
 from .jacobians import object_point_jacobians
 from .problem import BundleProblem, View
 from .solver import SolverOptions, run_lm
 from .terms import PointGroup, PointTerm
-
-
-def symmetry_transforms(model, n_continuous: int = 36) -> list[np.ndarray]:
-    """Symmetry transforms (4x4, model frame, mm) of an ObjectModel, identity first.
-
-    Discrete symmetries as given; each continuous symmetry axis is discretised into ``n_continuous`` steps."""
-    out = [np.eye(4)]
-    for S in getattr(model, "symmetries_discrete", []) or []:
-        S = np.asarray(S, dtype=np.float64).reshape(4, 4)
-        if not np.allclose(S, np.eye(4)):
-            out.append(S)
-    for c in getattr(model, "symmetries_continuous", []) or []:
-        axis = np.asarray(c["axis"], float)
-        axis = axis / (np.linalg.norm(axis) + 1e-12)
-        off = np.asarray(c.get("offset", [0, 0, 0]), float)
-        base = list(out)
-        for k in range(1, n_continuous):
-            R = exp_so3(axis * 2 * np.pi * k / n_continuous)
-            S = np.eye(4)
-            S[:3, :3] = R
-            S[:3, 3] = off - R @ off
-            out += [S @ B for B in base]
-    return out
 
 
 def sample_model_points(vertices_mm: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ycbvss.io.atomic import write_json_atomic
-from ycbvss.io.results import Estimate
-
+from ..io.atomic import write_json_atomic
+from ..io.bop import BopSceneWriter
+from ..io.results import Estimate
+from ..scene import Instance
 from .bundle import RefineResult
 
 
@@ -36,9 +37,6 @@ def estimates_of(scene_id: int, res: RefineResult, time_s: float = -1.0) -> list
 def write_scene_outputs(out_dir: str | Path, split: str, scene, res: RefineResult) -> Path:
     """Write <out>/<split>/<scene:06d>/{scene_gt.json, scene_camera.json} and
     <out>/refine/<scene:06d>_{world.json, sigma.json, status.json, log.json}. Returns the scene directory."""
-    from ycbvss.io.bop import BopSceneWriter
-    from ycbvss.scene import Instance
-
     out_dir = Path(out_dir)
     w = BopSceneWriter(out_dir / split, scene.scene_id)
     for f in sorted(scene.frames, key=lambda f: f.im_id):

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ycbvss.geometry.se3 import inv_T
+from ..geometry.se3 import inv_T
 
 MIN_Z_MM = 1.0   # points closer than this (or behind the camera) are invalid
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ycbvss.geometry.se3 import exp_se3, inv_T
+from ..geometry.se3 import exp_se3, inv_T
 
 
 @dataclass

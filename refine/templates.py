@@ -8,10 +8,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ycbvss.geometry.se3 import inv_T
-
-from .jacobians import backproject_px
+from ..geometry.se3 import inv_T
+from ..render import Renderer
 from .edge import all_contour_points, all_interior_points, contour_points, interior_points, subsample
+from .jacobians import backproject_px
 
 _RENDERER = None
 
@@ -20,7 +20,6 @@ def get_renderer():
     """One fast renderer per process (moderngl EGL context)."""
     global _RENDERER
     if _RENDERER is None:
-        from ycbvss.render import Renderer
         _RENDERER = Renderer()
     return _RENDERER
 

@@ -16,15 +16,14 @@ evaluated with the same samples (model points, matches) for step acceptance.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .edge import EdgeField, sample_E, sample_field
+from ..geometry.se3 import inv_T
 from .cubic_kernel import edge_cost_sum
+from .edge import EdgeField, sample_E, sample_field
 from .jacobians import MIN_Z_MM, object_point_jacobians, project_points, transfer_point_jacobians
-from ycbvss.geometry.se3 import inv_T
 from .problem import BundleProblem
 
 
@@ -157,16 +156,18 @@ class PointGroup:
     x: np.ndarray    # (N, 2) matched pixels in view i
 
 
+@dataclass
 class _RobustReprojectionTerm(ABC):
     """Shared robust (||r||^rho, IRLS) reprojection cost of matched pixels; subclasses say how a
     group's points project (``_project``) and which parameter blocks the Jacobians belong to
-    (``_linear``)."""
+    (``_linear``). ``groups``: the subclass's group type; ``rho``, ``floor_px``, ``cap_px``: see
+    :func:`robust_cost_weights`."""
 
-    groups: list
-    weight: float
-    rho: float
-    floor_px: float
-    cap_px: float
+    groups: list = field(default_factory=list)
+    weight: float = 1.0
+    rho: float = 0.25
+    floor_px: float = 0.5
+    cap_px: float = 30.0
 
     @abstractmethod
     def _project(self, pb: BundleProblem, gr) -> tuple[np.ndarray, np.ndarray]:
@@ -209,13 +210,8 @@ class _RobustReprojectionTerm(ABC):
 
 @dataclass
 class PointTerm(_RobustReprojectionTerm):
-    """Robust 3D-2D reprojection cost (||.||^rho) of flow matches."""
+    """Robust 3D-2D reprojection cost (||.||^rho) of flow matches; ``groups``: PointGroups."""
 
-    groups: list[PointGroup] = field(default_factory=list)
-    weight: float = 1.0
-    rho: float = 0.25
-    floor_px: float = 0.5
-    cap_px: float = 30.0
     name: str = "point"
 
     def _project(self, pb: BundleProblem, gr: PointGroup):
@@ -236,13 +232,9 @@ class TemporalGroup:
 
 @dataclass
 class TemporalTerm(_RobustReprojectionTerm):
-    """Robust two-view transfer cost between neighbouring views (cameras only)."""
+    """Robust two-view transfer cost between neighbouring views (cameras only); ``groups``:
+    TemporalGroups."""
 
-    groups: list[TemporalGroup] = field(default_factory=list)
-    weight: float = 1.0
-    rho: float = 0.25
-    floor_px: float = 0.5
-    cap_px: float = 30.0
     name: str = "temporal"
 
     def _project(self, pb: BundleProblem, gr: TemporalGroup):

@@ -27,10 +27,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ycbvss.camera import Camera
-from ycbvss.geometry.so3 import is_rotation
-from ycbvss.scene import Frame, Scene
-
+from ..camera import Camera
+from ..geometry.so3 import is_rotation
+from ..scene import Frame, Scene
 from .bundle import RefineOptions, refine_scene
 
 TRACKER_OPTIONS = RefineOptions(

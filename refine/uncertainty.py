@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ycbvss.geometry.se3 import adjoint
-from ycbvss.geometry.so3 import hat
+from ..geometry.se3 import adjoint
+from ..geometry.so3 import hat
 
 
 def sigmas_of(T: np.ndarray, C: np.ndarray) -> dict:

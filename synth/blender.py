@@ -11,12 +11,13 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import shutil
-import tempfile
 import queue
+import shutil
 import subprocess
 import sys
+import tempfile
 import threading
+import warnings
 from pathlib import Path
 
 from ..errors import YcbvssError
@@ -173,7 +174,6 @@ def render_job(job: dict, workers: int = 1, on_done=None) -> list[dict]:
             fseed = int(fr["seed"]) if "seed" in fr else frame_seed(seed, fr["id"])
             r = w.request({"cmd": "render", "frame": fr, "meshes": job["meshes"], "seed": fseed})
             for msg in r.pop("warnings", []):
-                import warnings
                 warnings.warn(msg, stacklevel=3)
             return r
 

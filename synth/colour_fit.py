@@ -9,6 +9,7 @@ import numpy as np
 
 def srgb_to_linear(rgb01: np.ndarray) -> np.ndarray:
     """sRGB-encoded values in [0, 1] -> linear RGB (IEC 61966-2-1)."""
+    # lazy: colour-science takes ~1.4 s to import
     import colour
     return np.asarray(colour.cctf_decoding(np.clip(rgb01, 0.0, 1.0), function="sRGB"), np.float32)
 
@@ -26,6 +27,7 @@ def srgb_u8_to_linear(rgb_u8: np.ndarray) -> np.ndarray:
 
 def linear_to_srgb(lin: np.ndarray) -> np.ndarray:
     """Linear RGB -> sRGB-encoded values in [0, 1] (clipped)."""
+    # lazy: colour-science takes ~1.4 s to import
     import colour
     return np.asarray(colour.cctf_encoding(np.clip(lin, 0.0, 1.0), function="sRGB"), np.float32)
 
@@ -113,6 +115,7 @@ def apply_colour_transform(rgb_lin: np.ndarray, M: np.ndarray, b: np.ndarray,
 
 def delta_e2000(srgb_a01: np.ndarray, srgb_b01: np.ndarray) -> np.ndarray:
     """CIEDE2000 between two sRGB (D65) colour arrays (..., 3) in [0, 1]."""
+    # lazy: colour-science takes ~1.4 s to import
     import colour
     cs = colour.RGB_COLOURSPACES["sRGB"]
 

@@ -5,7 +5,14 @@ coverage(o, s) = (# original visible pixels of o inside o's full silhouette at s
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+
+from ..errors import YcbvssError
+from ..io.images import read_label, read_mask
+from ..io.mesh import load_geometry_mm
+from ..render import Renderer
 
 SCALE_GRID = (1.02, 1.025, 1.03, 1.035, 1.04, 1.045, 1.05)
 TARGET = 0.995
@@ -42,12 +49,6 @@ def coverage_frame(worker, config: dict, task: dict) -> dict:
     ``{key: {"path", "unit_scale", "centre_mm"}}`` (undilated input models, recentred here);
     ``config["scales"]``: the scales (1.0 first). Returns ``{"scene_id", "im_id", "objects": [[obj_id, visible_px,
     [covered per scale]], ...]}``."""
-    from pathlib import Path
-
-    from ..errors import YcbvssError
-    from ..io.images import read_label, read_mask
-    from ..io.mesh import load_geometry_mm
-    from ..render import Renderer
     r = worker.cache.get("fast_renderer")
     if r is None:
         r = worker.cache["fast_renderer"] = Renderer()

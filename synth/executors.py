@@ -70,6 +70,7 @@ class RayExecutor:
     def __init__(self, address: str | None = None, workers: int | None = None, chunk: int = 8,
                  cpus_per_worker: int = 2, num_cpus: int | None = None):
         try:
+            # lazy: optional and heavy (Ray extra)
             import ray
         except ImportError:
             raise YcbvssError("the Ray executor needs Ray: pip install 'ycbvss[ray]'") from None
@@ -88,6 +89,7 @@ class RayExecutor:
 
     def map(self, config: dict, tasks: list[dict], on_result: Callable[[dict], None],
             func: str = FRAME_FUNC) -> list[dict]:
+        # lazy: optional and heavy (Ray extra)
         from ray.util import ActorPool
         if not tasks:
             return []

@@ -6,19 +6,18 @@ from __future__ import annotations
 
 import errno
 import os
-import tempfile
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ..errors import YcbvssError
-from ..io.atomic import _FILE_MODE, write_json_atomic
+from ..io.atomic import new_temp_file, write_json_atomic
 
 PNG_PARAMS = None
 
 
 def _png_params():
-    import cv2
     return [cv2.IMWRITE_PNG_COMPRESSION, 3]
 
 
@@ -33,11 +32,9 @@ class FrameFiles:
     def _tmp(self, path: Path) -> Path:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=f".tmp-{path.stem}-", suffix=path.suffix, dir=path.parent)
+            return new_temp_file(path, path.suffix)
         except OSError as e:
             raise self._error(e, path) from None
-        os.close(fd)
-        return Path(tmp)
 
     def _error(self, e: OSError, path: Path) -> YcbvssError:
         msg = "disk full" if e.errno == errno.ENOSPC else (e.strerror or str(e))
@@ -45,7 +42,6 @@ class FrameFiles:
 
     def png(self, path, image: np.ndarray) -> None:
         """PNG (uint8/uint16; 3-channel input is RGB)."""
-        import cv2
         path = Path(path)
         tmp = self._tmp(path)
         self._pending.append((tmp, path))
@@ -65,7 +61,6 @@ class FrameFiles:
             for tmp, final in self._pending:
                 with open(tmp, "rb+") as f:
                     os.fsync(f.fileno())
-                os.chmod(tmp, _FILE_MODE)       # mkstemp made it 0600: give it the umask's mode (0644 normally)
             for tmp, final in self._pending:
                 os.replace(tmp, final)
                 self._committed.append(final)

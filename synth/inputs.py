@@ -4,16 +4,20 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 
+from ..camera import Camera
 from ..errors import YcbvssError
+from ..geometry.so3 import orthonormality_error
+from ..io.atomic import read_json
+from ..io.bop import load_dataset, read_scene_camera
+from ..io.ycbv import list_frames, load_ycbv_dataset, read_meta_frame
+from ..scene import Frame, Instance, Scene
 
 
 def load_ycbv_scene_tolerant(root, video: int, models: dict, width: int = 640, height: int = 480):
     """Like ``ycbvss.io.ycbv.load_ycbv_scene`` but returns ``(Scene, [(im_id, reason), ...])``."""
-    from ..camera import Camera
-    from ..io.ycbv import list_frames, read_meta_frame
-    from ..scene import Frame, Instance, Scene
     root = Path(root)
     d = root / "data" / f"{video:04d}"
     frames, skipped = [], []
@@ -39,7 +43,6 @@ def load_ycbv_scene_tolerant(root, video: int, models: dict, width: int = 640, h
 
 def _bop_pose(e: dict) -> np.ndarray:
     """4x4 pose (mm) of one scene_gt entry; raises ValueError with the reason if unusable."""
-    from ..geometry.so3 import orthonormality_error
     R = np.asarray(e["cam_R_m2c"], np.float64).reshape(3, 3)
     t = np.asarray(e["cam_t_m2c"], np.float64).reshape(3)
     if not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
@@ -56,12 +59,6 @@ def _bop_pose(e: dict) -> np.ndarray:
 def load_bop_scene_tolerant(split_dir, scene_id: int, models: dict):
     """A BOP scene as ``(Scene, [(im_id, reason), ...])``: frames with an invalid scene_gt entry are skipped
     and reported; missing images are left to the frame worker (skipped and reported there)."""
-    import cv2
-
-    from ..camera import Camera
-    from ..io.atomic import read_json
-    from ..io.bop import read_scene_camera
-    from ..scene import Frame, Instance, Scene
     sdir = Path(split_dir) / f"{scene_id:06d}"
     cams = read_scene_camera(sdir / "scene_camera.json", scene_id)
     raw = read_json(sdir / "scene_gt.json", "scene_gt.json") if (sdir / "scene_gt.json").is_file() else {}
@@ -102,9 +99,7 @@ def open_input(dataset, split: str, scenes: list[int] | None = None):
     if not root.is_dir():
         raise YcbvssError("input dataset not found", root)
     if (root / "data").is_dir() and (root / "models").is_dir() and not (root / "models" / "models_info.json").is_file():
-        from ..io.ycbv import load_ycbv_dataset
         ds = load_ycbv_dataset(root, scenes)
         return ds, "ycbv", lambda sid: load_ycbv_scene_tolerant(root, sid, ds.models)
-    from ..io.bop import load_dataset
     ds = load_dataset(root, split, scene_ids=scenes)
     return ds, "bop", lambda sid: load_bop_scene_tolerant(root / split, sid, ds.models)

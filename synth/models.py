@@ -6,18 +6,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
-
-def bbox_center_mm(vertices_mm: np.ndarray) -> np.ndarray:
-    v = np.asarray(vertices_mm, np.float64)
-    return (v.min(axis=0) + v.max(axis=0)) / 2.0
-
-
-def recentre_pose(T_m2c: np.ndarray, c_mm: np.ndarray) -> np.ndarray:
-    """Pose of the model recentred by ``X_c = X - c``: ``t' = t + R c``."""
-    T = np.array(T_m2c, np.float64, copy=True)
-    T[:3, 3] = T[:3, 3] + T[:3, :3] @ np.asarray(c_mm, np.float64)
-    return T
+from ..io.bop import write_models
+from ..io.mesh import load_geometry_mm
 
 
 def transform_symmetries(disc: list, cont: list, c_mm: np.ndarray, scale: float) -> tuple[list, list]:
@@ -43,7 +35,6 @@ def centred_mesh(model, c_mm: np.ndarray, scale: float = 1.0):
 
 def write_dilated_models(models_dir: str | Path, models: dict, centres: dict, scales: dict) -> dict:
     """Write obj_XXXXXX.ply (+ .png texture) and models_info.json of the enlarged models."""
-    from ..io.bop import write_models
     meshes, syms = {}, {}
     for oid in sorted(scales):
         m = models[oid]
@@ -54,12 +45,9 @@ def write_dilated_models(models_dir: str | Path, models: dict, centres: dict, sc
 
 def write_original_models(models_dir: str | Path, models: dict, centres: dict) -> dict:
     """models_original/: the input models recentred (same frame as models/), NOT enlarged, geometry only."""
-    import trimesh
-    from ..io.bop import write_models
     meshes, syms = {}, {}
     for oid in sorted(centres):
         m = models[oid]
-        from ..io.mesh import load_geometry_mm
         g = load_geometry_mm(m.path, m.unit_scale) if m.path is not None else m.mesh
         meshes[oid] = trimesh.Trimesh(np.asarray(g.vertices, np.float64) - np.asarray(centres[oid], np.float64),
                                       np.asarray(g.faces), process=False)

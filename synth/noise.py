@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+import cv2
 import numpy as np
 
 
@@ -34,6 +35,5 @@ def blur_premultiplied(rgba: np.ndarray, sigma_px: float) -> np.ndarray:
     """Gaussian blur of a premultiplied RGBA render (colour and alpha together: no dark halos)."""
     if sigma_px <= 0:
         return rgba
-    import cv2
     return cv2.GaussianBlur(np.ascontiguousarray(rgba, np.float32), (0, 0), float(sigma_px),
                             borderType=cv2.BORDER_REPLICATE)

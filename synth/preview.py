@@ -4,10 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ..errors import YcbvssError
 from ..io.atomic import read_json
+from ..io.images import read_mask, read_rgb, write_png
+from ..progress import progress
 
 COLOURS = [(255, 64, 64), (64, 255, 64), (64, 128, 255), (255, 255, 0), (255, 0, 255), (0, 255, 255),
            (255, 160, 0), (160, 0, 255)]
@@ -15,7 +18,6 @@ COLOURS = [(255, 64, 64), (64, 255, 64), (64, 128, 255), (255, 255, 0), (255, 0,
 
 def triptych(orig: np.ndarray, synth: np.ndarray, masks_visib: list[np.ndarray]) -> np.ndarray:
     """(H, 3W, 3) uint8: original | YCBV-SS | original with the YCBV-SS visible-mask contours."""
-    import cv2
     ov = orig.copy()
     for k, m in enumerate(masks_visib):
         cs, _ = cv2.findContours(m.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
@@ -24,7 +26,6 @@ def triptych(orig: np.ndarray, synth: np.ndarray, masks_visib: list[np.ndarray])
 
 
 def contact_sheet(images: list[np.ndarray], cols: int = 4, thumb_w: int = 480) -> np.ndarray:
-    import cv2
     thumbs = []
     for im in images:
         h, w = im.shape[:2]
@@ -41,8 +42,6 @@ def contact_sheet(images: list[np.ndarray], cols: int = 4, thumb_w: int = 480) -
 def write_preview(dataset: str | Path, split: str = "test", out: str | Path | None = None,
                   scenes: list[int] | None = None, max_sheet: int = 24) -> Path:
     """Write ``<out>/<scene>/<im_id>.png`` triptychs and ``<out>/<scene>_contact.png`` (default out: DATASET/preview)."""
-    from ..io.images import read_mask, read_rgb, write_png
-    from ..progress import progress
     root = Path(dataset)
     split_dir = root / split
     if not split_dir.is_dir():

@@ -13,19 +13,25 @@ import json
 import sys
 import warnings
 from dataclasses import dataclass, field
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
 from ..errors import YcbvssError
-from ..io.atomic import read_json, write_json_atomic
+from ..geometry.model_frame import bbox_center, recentre_pose
+from ..io.atomic import read_json, write_json_atomic, write_text_atomic
+from ..io.bop_dataset import targets_filename, write_camera_files, write_models_eval, write_targets
+from ..io.results import read_bop19_csv
+from ..progress import progress
 from .coverage import SCALE_GRID, TARGET, choose_scale
+from .executors import COVERAGE_FUNC, make_executor
 from .frame import marker_path
-from .inputs import open_input
 from .frame_files import clean_temporaries
-from .models import bbox_center_mm, recentre_pose, write_dilated_models, write_original_models
+from .inputs import open_input
+from .models import centred_mesh, write_dilated_models, write_original_models
 from .noise import NoiseParams
-from ..io.bop_dataset import targets_filename
 
 STATE_DIR = ".synth_state"
 
@@ -69,7 +75,6 @@ def load_pose_overrides(path: str | Path | None, obj_ids) -> dict:
     """(scene_id, im_id, obj_id) -> T_m2c (mm, recentred BOP model frame) from a BOP19 CSV (best score)."""
     if path is None:
         return {}
-    from ..io.results import read_bop19_csv
     best: dict = {}
     for e in read_bop19_csv(path, obj_ids):
         k = (e.scene_id, e.im_id, e.obj_id)
@@ -113,9 +118,6 @@ def compute_coverage(ds, layout: str, scene_loader, overrides: dict, opts: Synth
     """One streaming pass over the selected frames (in the executor's workers): the objects present, their model
     centres, and per object the visible pixel total and covered counts at scale 1.0 and each grid scale.
     Returns (coverage, centres)."""
-    from ..progress import progress
-    from .executors import COVERAGE_FUNC
-    from .models import centred_mesh
     scales = (1.0,) + tuple(opts.scale_grid)
     acc: dict = {}
     centres: dict = {}
@@ -128,7 +130,7 @@ def compute_coverage(ds, layout: str, scene_loader, overrides: dict, opts: Synth
             if oid not in ds.models:
                 raise YcbvssError(f"object {oid}: no model", ds.root / "models")
             m = ds.models[oid]
-            centres[oid] = bbox_center_mm(m.vertices_mm)
+            centres[oid] = bbox_center(m.vertices_mm)
             with warnings.catch_warnings(record=True) as caught:   # e.g. texture missing -> grey model
                 warnings.simplefilter("always")
                 centred_mesh(m, centres[oid])
@@ -177,8 +179,6 @@ def assemble_scene(split_dir: Path, scene_id: int) -> dict:
 
 
 def _versions() -> dict:
-    from importlib.metadata import PackageNotFoundError, version
-    from .. import __version__
     try:
         bpy_v = version("bpy")
     except PackageNotFoundError:
@@ -263,7 +263,6 @@ def build_report(inputs: dict, opts: SynthOptions, models_state: dict, acc: Repo
 
 def dataset_info_md(split: str, scales: dict, models: dict) -> str:
     """dataset_info.md of a YCBV-SS root: which models are dilated and which the GT refers to."""
-    from .. import __version__
     rows = "\n".join(f"| {o} | {models[o].name} | {scales.get(o, 1.0):g} | "
                       f"{'yes' if scales.get(o, 1.0) != 1.0 else 'no (not rendered)' if o not in scales else 'no'} |"
                       for o in sorted(models))
@@ -282,8 +281,6 @@ def dataset_info_md(split: str, scales: dict, models: dict) -> str:
 
 def write_dataset_files(out: Path, split: str, scales: dict, models: dict) -> None:
     """Camera files, the split's targets, models_eval/ and dataset_info.md (see ycbvss.io.bop_dataset)."""
-    from ..io.atomic import write_text_atomic
-    from ..io.bop_dataset import write_camera_files, write_models_eval, write_targets
     write_camera_files(out)
     write_targets(out, split)
     write_models_eval(out, show_progress=False)
@@ -300,7 +297,6 @@ def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int
 
     ``executor``: a :class:`~ycbvss.synth.executors.LocalExecutor` / ``RayExecutor`` to use (not closed here);
     default: one made from ``opts`` (closed at the end)."""
-    from .executors import make_executor
     opts = opts or SynthOptions()
     out = Path(out)
     ds, layout, scene_loader = open_input(dataset, split, scenes)     # input errors before --out is created
@@ -318,34 +314,65 @@ def run_synth(dataset: str | Path, split: str, out: str | Path, scenes: list[int
 
 
 def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: SynthOptions, ex) -> dict:
-    from ..progress import progress
+    """The stages of :func:`run_synth` once the input is open: per-object coverage and scales (cached),
+    the models, every selected frame (resumable), then ``synth_report.json`` and the dataset files.
+    Returns the report (plus ``_timing``: summed worker seconds per stage and the frame count)."""
     split_dir = out / split
     clean_temporaries(out)
     overrides = load_pose_overrides(poses, ds.models.keys())
     inputs = {"dataset": str(Path(dataset).resolve()), "layout": layout, "split": split,
               "scenes": ds.scene_ids, "poses": None if poses is None else str(Path(poses).resolve()),
               "frames": opts.frames, "max_frames": opts.max_frames}
-    # ---- objects, centres, coverage + scales (cached in the state folder for resume)
     state_dir = out / STATE_DIR
+    coverage, centres = _cached_coverage(ds, layout, scene_loader, overrides, opts, ex, inputs, state_dir)
+    obj_ids = sorted(coverage)
+    if not obj_ids:
+        raise YcbvssError("no annotated objects in the selected frames", ds.root)
+    settings = {"seed": int(opts.seed), "render": opts.render_settings(), "noise": opts.noise.to_dict(),
+                "colour_fit": [opts.colour_fit, opts.colour_fit_method], "clear_px": opts.clear_px,
+                "layout": layout, "split": split,
+                "dataset": inputs["dataset"], "poses": inputs["poses"]}
+    prev_scales, prev_centres = _previous_run(state_dir / "run.json", settings, centres, obj_ids, out)
+    scales, models_state = _choose_scales(obj_ids, coverage, centres, prev_scales, opts, out)
+    all_scales = {**prev_scales, **scales}
+    all_centres = {**prev_centres, **centres}
+    _write_models(out, ds.models, state_dir, all_scales, all_centres)
+    write_json_atomic(state_dir / "run.json", {
+        "settings": settings, "scales": {str(k): v for k, v in sorted(all_scales.items())},
+        "centres_mm": {str(k): np.asarray(c).tolist() for k, c in sorted(all_centres.items())}})
+    config = _frame_config(split_dir, opts, out / "models", obj_ids)
+    acc = ReportAccumulator()
+    timing = {"render_s": 0.0, "composite_s": 0.0, "gt_s": 0.0, "total_s": 0.0, "n": 0}
+    for sid in ds.scene_ids:
+        _synth_scene(sid, scene_loader, split_dir, (layout, centres, overrides), opts, ex, config, acc, timing)
+    report = build_report(inputs, opts, models_state, acc, {o: ds.models[o].name for o in obj_ids})
+    write_json_atomic(out / "synth_report.json", report)
+    write_dataset_files(out, split, all_scales, ds.models)
+    _print_timing(timing)
+    report["_timing"] = timing
+    return report
+
+
+def _cached_coverage(ds, layout, scene_loader, overrides, opts: SynthOptions, ex, inputs: dict,
+                     state_dir: Path) -> tuple[dict, dict]:
+    """(coverage per obj_id, bbox centre (3,) mm per obj_id): read from the state folder when these
+    inputs were measured before, else :func:`compute_coverage` and cache them."""
     cov_key = _fingerprint([inputs, list(opts.scale_grid), opts.coverage_stride])
     cov_file = state_dir / f"coverage_{cov_key}.json"
     if cov_file.is_file():
         st = read_json(cov_file)
         coverage = {int(k): v for k, v in st["coverage"].items()}
         centres = {int(k): np.asarray(v) for k, v in st["centres_mm"].items()}
-    else:
-        coverage, centres = compute_coverage(ds, layout, scene_loader, overrides, opts, ex)
-        write_json_atomic(cov_file, {"coverage": {str(k): v for k, v in coverage.items()},
-                                     "centres_mm": {str(k): v.tolist() for k, v in centres.items()}})
-    obj_ids = sorted(coverage)
-    if not obj_ids:
-        raise YcbvssError("no annotated objects in the selected frames", ds.root)
-    # ---- an existing output fixes its settings and models: resume/extend only with the same ones
-    run_file = state_dir / "run.json"
-    settings = {"seed": int(opts.seed), "render": opts.render_settings(), "noise": opts.noise.to_dict(),
-                "colour_fit": [opts.colour_fit, opts.colour_fit_method], "clear_px": opts.clear_px,
-                "layout": layout, "split": split,
-                "dataset": inputs["dataset"], "poses": inputs["poses"]}
+        return coverage, centres
+    coverage, centres = compute_coverage(ds, layout, scene_loader, overrides, opts, ex)
+    write_json_atomic(cov_file, {"coverage": {str(k): v for k, v in coverage.items()},
+                                 "centres_mm": {str(k): v.tolist() for k, v in centres.items()}})
+    return coverage, centres
+
+
+def _previous_run(run_file: Path, settings: dict, centres: dict, obj_ids: list, out: Path) -> tuple[dict, dict]:
+    """An existing output fixes its settings and models: resume/extend only with the same ones.
+    Returns its (scales {obj_id: float}, centres {obj_id: (3,) mm}), empty for a new output."""
     prev = read_json(run_file, "synth run state") if run_file.is_file() else None
     if prev is not None and json.loads(json.dumps(settings)) != prev["settings"]:
         diff = sorted(k for k in settings if json.loads(json.dumps(settings[k])) != prev["settings"].get(k))
@@ -356,6 +383,13 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
     for oid in obj_ids:
         if oid in prev_centres and np.abs(prev_centres[oid] - centres[oid]).max() > 1e-6:
             raise YcbvssError(f"object {oid}: model differs from the one this output was made with", out)
+    return prev_scales, prev_centres
+
+
+def _choose_scales(obj_ids: list, coverage: dict, centres: dict, prev_scales: dict, opts: SynthOptions,
+                   out: Path) -> tuple[dict, dict]:
+    """The dilation scale of every object (given by --scales or the previous run, else the smallest
+    of the grid reaching the coverage target) and the per-object report entries ("objects")."""
     models_state = {"objects": {}}
     scales = {}
     for oid in obj_ids:
@@ -375,7 +409,7 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
                                                  tuple(opts.scale_grid), opts.coverage_target)
         if flagged:
             warnings.warn(f"object {oid}: coverage {cov_after:.4f} < {opts.coverage_target} even at scale {s}",
-                          stacklevel=2)
+                          stacklevel=3)
         scales[oid] = s
         models_state["objects"][oid] = {
             "scale": s, "centre_mm": np.round(centres[oid], 6).tolist(), "visible_px": c["visible_px"],
@@ -383,72 +417,80 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
             "coverage_after": None if cov_after is None else round(float(cov_after), 6),
             "coverage_by_scale": c["coverage_by_scale"], "flagged": bool(flagged),
             "model_warnings": c.get("warnings", [])}
+    return scales, models_state
+
+
+def _write_models(out: Path, models: dict, state_dir: Path, all_scales: dict, all_centres: dict) -> None:
+    """models/ (dilated) and models_original/, unless written already for these scales and centres:
+    every model of the input, the rendered objects enlarged, the others at scale 1 (never rendered)."""
     models_dir = out / "models"
-    all_scales = {**prev_scales, **scales}
-    all_centres = {**prev_centres, **centres}
     mkey = _fingerprint([{str(k): v for k, v in sorted(all_scales.items())},
                          {str(k): np.asarray(c).tolist() for k, c in sorted(all_centres.items())}])
     mstate = state_dir / f"models_{mkey}.done"
-    if not mstate.is_file() or not (models_dir / "models_info.json").is_file():
-        # every model of the input: the rendered objects enlarged, the others at scale 1 (never rendered)
-        others = {o: bbox_center_mm(ds.models[o].vertices_mm) for o in sorted(set(ds.models) - set(all_scales))}
-        write_dilated_models(models_dir, ds.models, {**others, **all_centres},
-                             {**{o: 1.0 for o in others}, **all_scales})
-        write_original_models(out / "models_original", ds.models, {**others, **all_centres})
-        write_json_atomic(mstate, {"scales": {str(k): v for k, v in sorted(all_scales.items())}})
-    write_json_atomic(run_file, {"settings": settings,
-                                 "scales": {str(k): v for k, v in sorted(all_scales.items())},
-                                 "centres_mm": {str(k): np.asarray(c).tolist() for k, c in sorted(all_centres.items())}})
-    config = {"split_dir": str(split_dir), "seed": int(opts.seed), "render": opts.render_settings(),
-              "noise": opts.noise.to_dict(), "colour_fit": opts.colour_fit,
-              "colour_fit_method": opts.colour_fit_method, "clear_px": int(opts.clear_px),
-              "meshes": {f"obj_{o:06d}": {"path": str((models_dir / f"obj_{o:06d}.ply").resolve())}
-                         for o in obj_ids}}
-    # ---- frames
-    acc = ReportAccumulator()
-    timing = {"render_s": 0.0, "composite_s": 0.0, "gt_s": 0.0, "total_s": 0.0, "n": 0}
-    for sid in ds.scene_ids:
-        scene, load_skipped = scene_loader(sid)
-        frames = _select_frames(scene, opts)
-        for im_id, reason in load_skipped:
-            if opts.frames is not None and im_id not in set(opts.frames):
-                continue
-            mp = marker_path(split_dir, sid, im_id)
-            if not mp.is_file():
-                print(f"ycbvss synth: warning: scene {sid} frame {im_id} skipped: {reason}", file=sys.stderr)
-                write_json_atomic(mp, {"scene_id": sid, "im_id": im_id, "skipped": reason, "warnings": []})
-        todo = [frame_task(f, layout, centres, overrides) for f in frames
-                if not marker_path(split_dir, sid, f.im_id).is_file()]
-        bar = progress(total=len(frames), desc=f"synth scene {sid}", unit="frame", initial=len(frames) - len(todo))
+    if mstate.is_file() and (models_dir / "models_info.json").is_file():
+        return
+    others = {o: bbox_center(models[o].vertices_mm) for o in sorted(set(models) - set(all_scales))}
+    write_dilated_models(models_dir, models, {**others, **all_centres}, {**{o: 1.0 for o in others}, **all_scales})
+    write_original_models(out / "models_original", models, {**others, **all_centres})
+    write_json_atomic(mstate, {"scales": {str(k): v for k, v in sorted(all_scales.items())}})
 
-        def on_result(r):
-            bar.update(1)
-            if r.get("timing"):
-                for k in ("render_s", "composite_s", "gt_s", "total_s"):
-                    timing[k] += r["timing"][k]
-                timing["n"] += 1
-            for w in r.get("warnings", []):
-                print(f"ycbvss synth: warning: {w}", file=sys.stderr)
-            if r.get("skipped"):
-                print(f"ycbvss synth: warning: scene {r['scene_id']} frame {r['im_id']} skipped: "
-                      f"{r['skipped']}", file=sys.stderr)
 
-        try:
-            ex.map(config, todo, on_result)
-        finally:
-            bar.close()
-        markers = assemble_scene(split_dir, sid)
-        want = {f.im_id for f in frames} | {i for i, _ in load_skipped}
-        for i, m in sorted(markers.items()):
-            if i in want:
-                acc.add(m)
-    report = build_report(inputs, opts, models_state, acc, {o: ds.models[o].name for o in obj_ids})
-    write_json_atomic(out / "synth_report.json", report)
-    write_dataset_files(out, split, all_scales, ds.models)
+def _frame_config(split_dir: Path, opts: SynthOptions, models_dir: Path, obj_ids: list) -> dict:
+    """The per-run part of every frame task (what the workers need besides the frame)."""
+    return {"split_dir": str(split_dir), "seed": int(opts.seed), "render": opts.render_settings(),
+            "noise": opts.noise.to_dict(), "colour_fit": opts.colour_fit,
+            "colour_fit_method": opts.colour_fit_method, "clear_px": int(opts.clear_px),
+            "meshes": {f"obj_{o:06d}": {"path": str((models_dir / f"obj_{o:06d}.ply").resolve())}
+                       for o in obj_ids}}
+
+
+def _synth_scene(sid: int, scene_loader, split_dir: Path, frame_inputs: tuple, opts: SynthOptions, ex,
+                 config: dict, acc: ReportAccumulator, timing: dict) -> None:
+    """Synthesise the selected frames of scene ``sid`` not done yet (``frame_inputs`` = (layout,
+    centres, pose overrides)), then assemble its scene files and add its frame markers to ``acc``.
+    Frames the loader skipped get a "skipped" marker; ``timing`` sums the workers' seconds."""
+    layout, centres, overrides = frame_inputs
+    scene, load_skipped = scene_loader(sid)
+    frames = _select_frames(scene, opts)
+    for im_id, reason in load_skipped:
+        if opts.frames is not None and im_id not in set(opts.frames):
+            continue
+        mp = marker_path(split_dir, sid, im_id)
+        if not mp.is_file():
+            print(f"ycbvss synth: warning: scene {sid} frame {im_id} skipped: {reason}", file=sys.stderr)
+            write_json_atomic(mp, {"scene_id": sid, "im_id": im_id, "skipped": reason, "warnings": []})
+    todo = [frame_task(f, layout, centres, overrides) for f in frames
+            if not marker_path(split_dir, sid, f.im_id).is_file()]
+    bar = progress(total=len(frames), desc=f"synth scene {sid}", unit="frame", initial=len(frames) - len(todo))
+    try:
+        ex.map(config, todo, lambda r: _on_frame_result(r, bar, timing))
+    finally:
+        bar.close()
+    markers = assemble_scene(split_dir, sid)
+    want = {f.im_id for f in frames} | {i for i, _ in load_skipped}
+    for i, m in sorted(markers.items()):
+        if i in want:
+            acc.add(m)
+
+
+def _on_frame_result(r: dict, bar, timing: dict) -> None:
+    """One finished frame task: progress, timings, its warnings and skip reason on stderr."""
+    bar.update(1)
+    if r.get("timing"):
+        for k in ("render_s", "composite_s", "gt_s", "total_s"):
+            timing[k] += r["timing"][k]
+        timing["n"] += 1
+    for w in r.get("warnings", []):
+        print(f"ycbvss synth: warning: {w}", file=sys.stderr)
+    if r.get("skipped"):
+        print(f"ycbvss synth: warning: scene {r['scene_id']} frame {r['im_id']} skipped: "
+              f"{r['skipped']}", file=sys.stderr)
+
+
+def _print_timing(timing: dict) -> None:
+    """Mean worker seconds per synthesised frame and stage, on stderr (nothing if no frame was made)."""
     if timing["n"]:
         n = timing["n"]
         print(f"ycbvss synth: {n} frames synthesised; per frame (worker time): render "
               f"{timing['render_s'] / n:.2f} s, composite {timing['composite_s'] / n:.2f} s, "
               f"GT+files {timing['gt_s'] / n:.2f} s, total {timing['total_s'] / n:.2f} s", file=sys.stderr)
-    report["_timing"] = timing
-    return report

@@ -223,7 +223,7 @@ def test_export_and_gt_csv(converted, tmp_path):
     dataset files; `ycbvss gt` writes every GT pose; a missing refine folder is one error line, exit 2."""
     import subprocess
     import sys
-    from ycbvss.export import export_refined
+    from ycbvss.pipeline.export import export_refined
     from ycbvss.io.results import read_bop19_csv
     ref = tmp_path / "refine_out"
     poses = _fake_refine_output(converted, "train_real", 1, ref, shift_mm=3.0)

@@ -51,6 +51,7 @@ def test_rendered_masks_match_label_images(converted, ycbv_root):
     on these clips only 009_gelatin_box is isolated, so the bound is asserted on all unoccluded.
     """
     import cv2
+
     from ycbvss.gt_info import mask_iou
     from ycbvss.io.bop import load_dataset
     from ycbvss.io.images import read_label, read_mask
@@ -97,9 +98,9 @@ def test_occluded_masks_still_agree(converted, ycbv_root):
 
 def test_poses_round_trip_exactly(converted, ycbv_root):
     """t = t_bop / 1000 - R c reproduces meta.mat poses to 1e-6 mm; cam_R/t_w2c from meta.mat."""
-    from ycbvss.convert import bop_to_ycbv_pose
+    from ycbvss.geometry.model_frame import uncentre_pose
     from ycbvss.io.bop import load_dataset
-    from ycbvss.io.ycbv import model_center_m
+    from ycbvss.io.ycbv import model_center_mm
     out, _ = converted
     ds = load_dataset(out, "train_real")
     worst_t = worst_R = worst_w = 0.0
@@ -109,8 +110,8 @@ def test_poses_round_trip_exactly(converted, ycbv_root):
             assert [i.obj_id for i in f.instances] == meta["cls_indexes"].ravel().tolist()
             for k, inst in enumerate(f.instances):
                 name = ds.models[inst.obj_id].name
-                c_mm = 1000 * model_center_m(ycbv_root / "models" / name / "textured.obj")
-                T = bop_to_ycbv_pose(inst.T_m2c, c_mm)
+                c_mm = model_center_mm(ycbv_root / "models" / name / "textured.obj")
+                T = uncentre_pose(inst.T_m2c, c_mm)
                 worst_t = max(worst_t, np.abs(T[:3, 3] - 1000 * meta["poses"][:, 3, k]).max())
                 worst_R = max(worst_R, np.abs(T[:3, :3] - meta["poses"][:, :3, k]).max())
             Rt = meta["rotation_translation_matrix"]
@@ -143,6 +144,7 @@ def test_converted_model_frame_is_the_bop_frame(converted, bop_models_root):
     """Official BOP obj_000002 vertices lie on our recentred mesh (mean distance < 2 mm)."""
     import trimesh
     from scipy.spatial import cKDTree
+
     from ycbvss.io.mesh import load_mesh_mm, load_vertices_mm
     out, _ = converted
     ours = load_mesh_mm(out / "models/obj_000002.ply")

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-pytest.importorskip("numba")
 
-from scipy.spatial import cKDTree  # noqa: E402
 
-from ycbvss.eval import model_points as mpmod  # noqa: E402
-from ycbvss.eval.metrics import relative_model_transform  # noqa: E402
-from ycbvss.eval.model_points import ModelPoints  # noqa: E402
-from ycbvss.geometry.so3 import exp_so3  # noqa: E402
+from scipy.spatial import cKDTree
+
+from ycbvss.eval import model_points as mpmod
+from ycbvss.eval.metrics import relative_model_transform
+from ycbvss.eval.model_points import ModelPoints
+from ycbvss.geometry.so3 import exp_so3
 
 
 def _surface(rng, n=3000):

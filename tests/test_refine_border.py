@@ -12,7 +12,8 @@ import pytest
 
 from ycbvss.camera import Camera
 from ycbvss.refine import RefineOptions, refine_scene
-from ycbvss.refine.accuracy import deviate_scene, pose_errors
+from ycbvss.eval.metrics import pose_errors_4x4
+from ycbvss.refine.deviation import deviate_scene
 
 
 @pytest.fixture(scope="module")
@@ -53,12 +54,12 @@ def test_object_cut_by_the_image_border_is_refined(cut_scene):
     Ks = {f.im_id: f.camera.K for f in ps.frames}
 
     def err(poses, o):
-        e = [pose_errors(poses[k], gt[k], pts[o], Ks[k[0]]) for k in gt if k[1] == o]
-        return {m: float(np.mean([x[m] for x in e])) for m in ("tz", "R", "PRJ", "ADD")}
+        e = [pose_errors_4x4(poses[k], gt[k], Ks[k[0]], pts[o]) for k in gt if k[1] == o]
+        return {m: float(np.mean([x[m] for x in e])) for m in ("tz_mm", "r_deg", "prj_px", "add_mm")}
 
     e0, e1 = err(init, cut), err(res.poses, cut)
-    assert e0["PRJ"] > 2.0 and e0["ADD"] > 8.0, e0          # the init really is off
+    assert e0["prj_px"] > 2.0 and e0["add_mm"] > 8.0, e0          # the init really is off
     # measured (seed 3): init PRJ 4.3 px / ADD 20.3 mm -> PRJ 0.47 px, R 0.43 deg, ADD 5.6 mm (depth is
     # weaker than for the uncut object, ADD 0.85 mm: half of its contour is gone)
-    assert e1["PRJ"] < 0.8, (e0, e1)                           # sub-pixel although half of it is cut
-    assert e1["R"] < 1.5 and e1["ADD"] < e0["ADD"] / 2.5, (e0, e1)
+    assert e1["prj_px"] < 0.8, (e0, e1)                           # sub-pixel although half of it is cut
+    assert e1["r_deg"] < 1.5 and e1["add_mm"] < e0["add_mm"] / 2.5, (e0, e1)

@@ -16,7 +16,7 @@ def bop_root(tmp_path_factory):
     from ycbvss.procedural.io import write_models
     from ycbvss.procedural.render import render_frame_fast
     from ycbvss.procedural.scene import make_scene
-    from ycbvss.refine.accuracy import deviate_scene
+    from ycbvss.refine.deviation import deviate_scene
 
     root = tmp_path_factory.mktemp("bop")
     ps = make_scene(seed=1, n_frames=4, width=320, height=240, arc_deg=30)

@@ -13,7 +13,8 @@ import numpy as np
 
 from ycbvss.geometry.se3 import make_T
 from ycbvss.geometry.so3 import exp_so3, rotation_angle_deg
-from ycbvss.refine.init import align_symmetric, initialise, symmetry_transforms
+from ycbvss.geometry.symmetry import symmetry_transforms
+from ycbvss.refine.init import align_symmetric, initialise
 from ycbvss.refine.problem import View
 
 FLIP = [1, 0, 0, 0, 0, -1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 1]

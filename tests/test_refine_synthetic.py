@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from ycbvss.refine import RefineOptions, RefineResult, refine_scene
-from ycbvss.refine.accuracy import deviate_scene, pose_errors
+from ycbvss.eval.metrics import pose_errors_4x4
+from ycbvss.refine.deviation import deviate_scene
 from ycbvss.scene import Scene
 
 
@@ -27,7 +28,7 @@ def scene4():
 
 
 def _mean_err(poses, gt, pts, K, objs=None):
-    e = [pose_errors(poses[k], gt[k], pts[k[1]], K) for k in gt if objs is None or k[1] in objs]
+    e = [pose_errors_4x4(poses[k], gt[k], K, pts[k[1]]) for k in gt if objs is None or k[1] in objs]
     return {m: float(np.mean([x[m] for x in e])) for m in e[0]}
 
 
@@ -37,7 +38,7 @@ def test_subpixel_recovery_from_5px_init_textured_and_textureless(scene4):
     init = deviate_scene(ps.T_m2w, {f.im_id: f.T_w2c for f in ps.frames}, np.random.default_rng(0),
                          t_sigma_mm=(4.0, 4.0, 25.0), r_sigma_deg=2.5)
     e0 = _mean_err(init, gt, pts, K)
-    assert e0["PRJ"] > 3.0 and e0["ADD"] > 12.0          # the init really is off by pixels / cm
+    assert e0["prj_px"] > 3.0 and e0["add_mm"] > 12.0          # the init really is off by pixels / cm
     res = refine_scene(ps.scene, ps.models, init, RefineOptions(), images=imgs)
     assert isinstance(res, RefineResult)
     assert set(res.poses) == set(gt)
@@ -45,15 +46,15 @@ def test_subpixel_recovery_from_5px_init_textured_and_textureless(scene4):
     plain = [o for o, m in ps.models.items() if m.textureless]
     et, ep, ea = (_mean_err(res.poses, gt, pts, K, textured), _mean_err(res.poses, gt, pts, K, plain),
                   _mean_err(res.poses, gt, pts, K))
-    assert et["PRJ"] < 0.5, et
-    assert ep["PRJ"] < 0.5, ep
-    assert ea["ADD"] < e0["ADD"] / 10, (e0, ea)
-    assert ea["tz"] < 1.5, ea
+    assert et["prj_px"] < 0.5, et
+    assert ep["prj_px"] < 0.5, ep
+    assert ea["add_mm"] < e0["add_mm"] / 10, (e0, ea)
+    assert ea["tz_mm"] < 1.5, ea
     # every object, the textureless mug included (measured at 320x240, 4 views: PRJ <= 0.27 px,
     # R <= 0.41 deg, tz <= 0.97 mm)
     for o in ps.models:
         eo = _mean_err(res.poses, gt, pts, K, [o])
-        assert eo["PRJ"] < 0.5 and eo["R"] < 0.8 and eo["tz"] < 2.0, (ps.models[o].name, eo)
+        assert eo["prj_px"] < 0.5 and eo["r_deg"] < 0.8 and eo["tz_mm"] < 2.0, (ps.models[o].name, eo)
     # the accepted steps never raise the cost
     for rec in res.log:
         if rec["accepted"]:
@@ -81,8 +82,8 @@ def test_single_view_refines_objects(scene4):
         init[(f.im_id, i.obj_id)] = T
     res = refine_scene(Scene(1, [f]), ps.models, init, RefineOptions(max_iters=3), images={f.im_id: imgs[f.im_id]})
     K = f.camera.K
-    p0 = np.array([pose_errors(init[k], gt[k], pts[k[1]], K)["PRJ"] for k in sorted(init)])
-    p1 = np.array([pose_errors(res.poses[k], gt[k], pts[k[1]], K)["PRJ"] for k in sorted(init)])
+    p0 = np.array([pose_errors_4x4(init[k], gt[k], K, pts[k[1]])["prj_px"] for k in sorted(init)])
+    p1 = np.array([pose_errors_4x4(res.poses[k], gt[k], K, pts[k[1]])["prj_px"] for k in sorted(init)])
     assert np.all(np.isfinite(p1))
     assert int((p1 < 0.7 * p0).sum()) >= 3, (p0, p1)
     assert np.median(p1) < 0.8 * np.median(p0), (p0, p1)
@@ -118,7 +119,7 @@ def test_bad_inputs_never_nan(scene4):
     # objects stay close to GT in the good views despite the bad ones (robust init + refinement)
     e = _mean_err(res.poses, {k: gt[k] for k in res.poses if k[0] != frames[2].im_id and k[1] != 5}, pts,
                   frames[0].camera.K)
-    assert e["PRJ"] < 2.0, e
+    assert e["prj_px"] < 2.0, e
 
 
 def test_object_without_any_init_is_reported(scene4):
@@ -150,7 +151,7 @@ def test_keyframes_then_camera_only_refinement():
     nonkey = {1, 2, 4, 5}
     e = _mean_err(res.poses, {k: v for k, v in gt.items() if k[0] in nonkey}, pts, K)
     ek = _mean_err(res.poses, {k: v for k, v in gt.items() if k[0] not in nonkey}, pts, K)
-    assert ek["PRJ"] < 1.0 and e["PRJ"] < 1.0, (ek, e)
+    assert ek["prj_px"] < 1.0 and e["prj_px"] < 1.0, (ek, e)
     assert set(res.sigma["cameras"]) == {1, 2, 3, 4, 5, 6}
     assert any(rec["stage"].startswith("frames") for rec in res.log)
 

@@ -6,12 +6,19 @@ import pytest
 
 from ycbvss.blender_scripts.camera import blender_camera_params, border_from_bbox
 from ycbvss.errors import YcbvssError
-from ycbvss.synth.colour_fit import (apply_colour_transform, delta_e2000, fit_colour_transfer_mk,
-                                     fit_colour_transform, linear_to_srgb, srgb_to_linear)
+from ycbvss.geometry.model_frame import recentre_pose
+from ycbvss.synth.colour_fit import (
+    apply_colour_transform,
+    delta_e2000,
+    fit_colour_transfer_mk,
+    fit_colour_transform,
+    linear_to_srgb,
+    srgb_to_linear,
+)
 from ycbvss.synth.coverage import SCALE_GRID, choose_scale
 from ycbvss.synth.frame import validate_pose
 from ycbvss.synth.frame_files import FrameFiles, clean_temporaries
-from ycbvss.synth.models import recentre_pose, transform_symmetries
+from ycbvss.synth.models import transform_symmetries
 from ycbvss.synth.noise import NoiseParams, add_sensor_noise
 
 

@@ -9,7 +9,7 @@ import contextlib
 import errno
 import json
 import os
-import tempfile
+import secrets
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -18,13 +18,21 @@ import numpy as np
 from ..errors import YcbvssError
 
 
-def _default_file_mode() -> int:
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o666 & ~umask
+def new_temp_file(path: Path, suffix: str) -> Path:
+    """Create an empty ``.tmp-<stem>-<random><suffix>`` next to ``path`` and return its path.
 
-
-_FILE_MODE = _default_file_mode()
+    Created with ``O_EXCL`` and mode 0o666, so the kernel applies the process umask (the final
+    file gets the usual rw-r--r--) without reading or changing the umask. OSError propagates."""
+    path = Path(path)
+    for _ in range(100):
+        tmp = path.parent / f".tmp-{path.stem}-{secrets.token_hex(4)}{suffix}"
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:
+            continue
+        os.close(fd)
+        return tmp
+    raise FileExistsError(errno.EEXIST, "no free temporary name", str(path.parent))
 
 
 @contextlib.contextmanager
@@ -41,16 +49,13 @@ def atomic_path(path: str | Path, suffix: str | None = None) -> Iterator[Path]:
         raise YcbvssError(f"cannot create output folder: {e.strerror}", path.parent) from None
     sfx = suffix if suffix is not None else "".join(path.suffixes[-1:])
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".tmp-{path.stem}-", suffix=sfx, dir=path.parent)
+        tmp = new_temp_file(path, sfx)
     except OSError as e:
         raise YcbvssError(f"output not writable: {e.strerror}", path) from None
-    os.close(fd)
-    tmp = Path(tmp)
     try:
         yield tmp
         with open(tmp, "rb+") as f:
             os.fsync(f.fileno())
-        os.chmod(tmp, _FILE_MODE)   # mkstemp creates 0600; outputs get the usual rw-r--r--
         os.replace(tmp, path)
     except OSError as e:
         tmp.unlink(missing_ok=True)

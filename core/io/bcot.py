@@ -28,6 +28,7 @@ from PIL import Image
 from ..camera import Camera, check_K
 from ..errors import YcbvssError
 from ..geometry.so3 import exp_so3, orthonormality_error
+from ..render import Renderer
 from ..scene import Dataset, Frame, Instance, ObjectModel, Scene
 from .atomic import atomic_path, write_text_atomic
 from .images import write_png
@@ -266,7 +267,6 @@ def make_bcot_fixture(out: str | Path, mesh_path: str | Path, body: str = "Cat",
     """A small BCOT-layout dataset: ``body`` (the mesh at ``mesh_path``, scaled to mm by
     ``unit_scale``) moving in each of ``scenes``, frames rendered with the fast renderer (textured,
     headlight-shaded) over a grey background. Deterministic for ``seed``. Returns ``out``."""
-    from ..render import Renderer  # lazy: OpenGL context, only for the fixture
     out = Path(out)
     mesh, tex = load_textured_mm(mesh_path, unit_scale)
     v, fc = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)

@@ -23,11 +23,16 @@ from pathlib import Path
 from typing import Iterable, Sequence
 
 import numpy as np
+from PIL import Image, UnidentifiedImageError
 
 from ..camera import Camera, check_K
 from ..errors import YcbvssError, where as fmt_where
+from ..geometry.so3 import orthonormality_error
+from ..manifest import object_entries, object_names
 from ..scene import Dataset, Frame, Instance, ObjectModel, Scene
 from .atomic import atomic_path, read_json, write_json_atomic
+from .images import write_depth_png, write_jpg, write_png
+from .mesh import compute_models_info, load_vertices_mm, mesh_texture_rgb, write_ply_mm
 from .ycbv import ROT_TOL, check_pose
 
 IMAGE_DIRS = ("rgb", "gray")
@@ -70,7 +75,6 @@ def _names_for(obj_ids: Iterable[int], names, models_dir: Path) -> dict[int, str
     if isinstance(names, dict):
         return {int(k): v for k, v in names.items()}
     if names == "auto" and is_ycbv_models_dir(models_dir):
-        from ..manifest import object_names
         man = object_names()
         ids = set(obj_ids)
         return {i: man[i] for i in ids} if ids <= set(man) else {}
@@ -97,7 +101,6 @@ def load_models_info(models_dir: str | Path) -> dict[int, dict]:
             raise YcbvssError(f"diameter {d:g} < 1: model apparently in metres (BOP models are in mm)", p, wh)
         for S in info.get("symmetries_discrete", []) or []:
             M = _floats(S, 16, p, wh, "symmetries_discrete entry").reshape(4, 4)
-            from ..geometry.so3 import orthonormality_error
             if orthonormality_error(M[:3, :3]) > ROT_TOL:
                 raise YcbvssError("symmetries_discrete rotation is not orthonormal", p, wh)
         for c in info.get("symmetries_continuous", []) or []:
@@ -115,14 +118,12 @@ def load_models(models_dir: str | Path, symmetric_obj_ids: Iterable[int] = (13,)
     ``names="auto"``: YCB names/textureless flags from the assets manifest for a YCB-V model folder
     (see :func:`is_ycbv_models_dir`) whose obj_ids are all YCB-V ids (1..21); a dict sets names. Missing models_info.json: info is computed from the PLY files (warning).
     """
-    from ..manifest import object_entries
     models_dir = Path(models_dir)
     if not models_dir.is_dir():
         raise YcbvssError("models folder not found", models_dir)
     if (models_dir / "models_info.json").is_file():
         infos = load_models_info(models_dir)
     else:
-        from .mesh import compute_models_info, load_vertices_mm
         plys = sorted(models_dir.glob("obj_*.ply"))
         if not plys:
             raise YcbvssError("no models_info.json and no obj_XXXXXX.ply files", models_dir)
@@ -160,7 +161,6 @@ def write_models(models_dir: str | Path, meshes_mm: dict[int, object],
     ``meshes_mm``: obj_id -> trimesh in mm (BOP frame). ``symmetries``: obj_id -> (discrete
     4x4 list, continuous dict list). Returns the models_info dict written.
     """
-    from .mesh import compute_models_info, mesh_texture_rgb, write_ply_mm
     models_dir = Path(models_dir)
     info = {}
     for oid, mesh in sorted(meshes_mm.items()):
@@ -196,7 +196,6 @@ def read_scene_camera(path: str | Path, scene_id: int | None = None) -> dict[int
         if "cam_R_w2c" in e and "cam_t_w2c" in e:
             R = _floats(e["cam_R_w2c"], 9, path, wh, "cam_R_w2c").reshape(3, 3)
             t = _floats(e["cam_t_w2c"], 3, path, wh, "cam_t_w2c")
-            from ..geometry.so3 import orthonormality_error
             err = float(orthonormality_error(R))
             if err > ROT_TOL:
                 raise YcbvssError(f"cam_R_w2c is not orthonormal (|R^T R - I| = {err:.3g})", path, wh)
@@ -271,7 +270,6 @@ def list_scene_ids(split_dir: str | Path) -> list[int]:
 
 
 def _image_size(path: Path, where: str) -> tuple[int, int]:
-    from PIL import Image, UnidentifiedImageError
     try:
         with Image.open(path) as im:
             return im.size
@@ -407,7 +405,6 @@ class BopSceneWriter:
                     masks: Sequence[np.ndarray] | None = None, masks_visib: Sequence[np.ndarray] | None = None,
                     gt_info: Sequence[dict] | None = None, rgb_src: str | Path | None = None,
                     depth_src: str | Path | None = None) -> None:
-        from .images import write_depth_png, write_jpg, write_png
         im = int(frame.im_id)
         d = self.dir
         if rgb_src is not None:

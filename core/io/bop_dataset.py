@@ -15,9 +15,13 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
 from ..errors import YcbvssError, where as fmt_where
+from ..manifest import cameras
+from ..progress import progress
 from .atomic import atomic_path, read_json, write_json_atomic, write_text_atomic
+from .mesh import load_geometry_mm, write_ply_mm
 
 MIN_VISIB_FRACT = 0.1       # BOP19 targets: instances at least 10 % visible
 
@@ -29,7 +33,6 @@ def targets_filename(split: str) -> str:
 
 def write_camera_files(root: str | Path, depth_scale: float = 0.1, names=None) -> list[Path]:
     """camera_<name>.json for the YCB-Video sensors of the assets manifest (uw, cmu)."""
-    from ..manifest import cameras
     root = Path(root)
     written = []
     for name, cam in cameras().items():
@@ -81,7 +84,8 @@ def write_targets(root: str | Path, split: str) -> Path:
 
 def remesh_for_eval(vertices_mm: np.ndarray, faces: np.ndarray, edge_mm: float):
     """Uniformly resampled mesh (pymeshlab isotropic explicit remeshing); returns (V, F)."""
-    import pymeshlab   # lazy: heavy, only needed for models_eval
+    # lazy: heavy, only needed for models_eval
+    import pymeshlab
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(np.asarray(vertices_mm, np.float64), np.asarray(faces, np.int32)))
     ms.meshing_remove_duplicate_vertices()
@@ -100,9 +104,6 @@ def write_models_eval(root: str | Path, obj_ids=None, overwrite: bool = False, s
     """models_eval/obj_XXXXXX.ply (uniformly remeshed, no texture) + models_info.json (copied from
     models/). Skips models whose models_eval PLY is newer than the model unless ``overwrite``.
     Returns {obj_id: number of vertices written}."""
-    import trimesh
-    from .mesh import load_geometry_mm, write_ply_mm
-    from ..progress import progress
     root = Path(root)
     src, dst = root / "models", root / "models_eval"
     info_p = src / "models_info.json"

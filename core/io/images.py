@@ -5,6 +5,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import OpenEXR
 
 from ..errors import YcbvssError
 from .atomic import atomic_path
@@ -78,7 +79,6 @@ def write_depth_png(path, depth_mm: np.ndarray, depth_scale: float = 1.0) -> Non
 
 def read_exr_depth(path, where: str | None = None) -> np.ndarray:
     """Single-channel float32 OpenEXR (channel 'Z', 'Y', 'R' or 'V') -> (H, W) float32."""
-    import OpenEXR
     path = Path(path)
     if not path.is_file():
         raise YcbvssError("missing EXR file", path, where)
@@ -99,7 +99,6 @@ def read_exr_depth(path, where: str | None = None) -> np.ndarray:
 
 def write_exr_depth(path, depth: np.ndarray, channel: str = "Z") -> None:
     """(H, W) float32 -> single-channel float32 OpenEXR (ZIP compression), atomically."""
-    import OpenEXR
     d = np.ascontiguousarray(depth, dtype=np.float32)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     with atomic_path(path, ".exr") as tmp:

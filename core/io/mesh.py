@@ -16,7 +16,11 @@ import re
 import warnings
 from pathlib import Path
 
+import cv2
 import numpy as np
+import trimesh
+from scipy.spatial import ConvexHull, QhullError
+from scipy.spatial.distance import pdist
 
 from ..errors import YcbvssError
 from .atomic import atomic_path
@@ -69,8 +73,6 @@ def load_mesh_mm(path, unit_scale: float = 1.0):
     textured models survive. A texture file named by the model but missing on disk raises a
     warning (one line) and the model gets a uniform grey colour instead.
     """
-    import trimesh
-
     path = _check_file(path, "model file")
     tex = _texture_reference(path)
     tex_missing = tex is not None and not tex.is_file()
@@ -99,9 +101,6 @@ def load_mesh_mm(path, unit_scale: float = 1.0):
 def load_textured_mm(path, unit_scale: float = 1.0):
     """(mesh with per-vertex UVs, texture RGB uint8 | None) in mm; the texture is decoded with
     OpenCV (much faster than through trimesh/PIL for 4096 px maps). Missing texture: warning."""
-    import cv2
-    import trimesh
-
     path = _check_file(path, "model file")
     try:
         mesh = trimesh.load(str(path), process=False, force="mesh", skip_materials=True)
@@ -126,8 +125,6 @@ def load_textured_mm(path, unit_scale: float = 1.0):
 
 def load_geometry_mm(path, unit_scale: float = 1.0):
     """Vertices and faces only (no texture decoding) as a ``trimesh.Trimesh`` in mm."""
-    import trimesh
-
     path = _check_file(path, "model file")
     try:
         mesh = trimesh.load(str(path), process=False, force="mesh", skip_materials=True)
@@ -328,7 +325,6 @@ def write_ply_mm(path, mesh, texture_name: str | None = None,
     head += [f"property {'uchar' if dt == 'u1' else 'float'} {name}" for name, dt in fields]
     head += [f"element face {len(f)}", "property list uchar int vertex_indices", "end_header"]
     if textured:
-        import cv2
         bgr = cv2.cvtColor(np.ascontiguousarray(texture_rgb[..., :3]), cv2.COLOR_RGB2BGR)
         with atomic_path(path.parent / texture_name, ".png") as tmp:   # fast: level 1 + RLE
             if not cv2.imwrite(str(tmp), bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1,
@@ -343,9 +339,6 @@ def write_ply_mm(path, mesh, texture_name: str | None = None,
 
 def diameter_mm(vertices: np.ndarray) -> float:
     """Largest distance between two vertices (exact: searched over the convex hull vertices)."""
-    from scipy.spatial import ConvexHull, QhullError
-    from scipy.spatial.distance import pdist
-
     v = np.asarray(vertices, np.float64)
     try:
         hv = v[ConvexHull(v).vertices]

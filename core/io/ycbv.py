@@ -24,11 +24,15 @@ from pathlib import Path
 from typing import Iterable
 
 import numpy as np
+import scipy.io
 
 from ..camera import Camera, check_K
 from ..errors import YcbvssError, where as fmt_where
+from ..geometry.model_frame import bbox_center
 from ..geometry.so3 import orthonormality_error
+from ..manifest import bop_symmetries, camera_for_video, object_entries, object_names, protocol_symmetric_ids
 from ..scene import Dataset, Frame, Instance, ObjectModel, Scene
+from .mesh import diameter_mm, load_vertices_mm
 
 ROT_TOL = 1e-4
 _FRAME_RE = re.compile(r"^(\d{6})-meta\.mat$")
@@ -41,7 +45,6 @@ def read_classes(root: str | Path) -> dict[int, str]:
         names = [ln.strip() for ln in p.read_text(encoding="utf-8", errors="replace").splitlines() if ln.strip()]
         if names:
             return {i: n for i, n in enumerate(names, start=1)}
-    from ..manifest import object_names
     return object_names()
 
 
@@ -83,14 +86,6 @@ def parse_videos(spec: str | Iterable[int] | None, what: str = "video list") -> 
     return sorted(out)
 
 
-@lru_cache(maxsize=64)
-def _obj_center_m(path: str) -> tuple[float, float, float]:
-    from .mesh import load_vertices_mm
-    v = load_vertices_mm(path, 1.0)
-    c = (v.min(axis=0) + v.max(axis=0)) / 2
-    return tuple(float(x) for x in c)
-
-
 def _stamp(path: Path) -> tuple[int, int]:
     st = path.stat()
     return st.st_mtime_ns, st.st_size
@@ -99,20 +94,18 @@ def _stamp(path: Path) -> tuple[int, int]:
 @lru_cache(maxsize=256)
 def _model_stats(path: str, mtime_ns: int, size: int) -> tuple[float, tuple[float, float, float]]:
     """(diameter mm, bbox centre mm) of a textured.obj in metres; cached per file version."""
-    from .mesh import diameter_mm, load_vertices_mm
     v = load_vertices_mm(path, 1000.0)
-    c = (v.min(axis=0) + v.max(axis=0)) / 2
-    return diameter_mm(v), tuple(float(x) for x in c)
+    return diameter_mm(v), tuple(float(x) for x in bbox_center(v))
 
 
-def model_center_m(obj_path: str | Path) -> np.ndarray:
-    """Bounding-box centre c (metres) of a YCB-Video textured.obj: the BOP model origin."""
-    return np.array(_obj_center_m(str(Path(obj_path).resolve())))
+def model_center_mm(obj_path: str | Path) -> np.ndarray:
+    """Bounding-box centre c (mm) of a YCB-Video textured.obj: the BOP model origin (cached)."""
+    path = Path(obj_path).resolve()
+    return np.array(_model_stats(str(path), *_stamp(path))[1])
 
 
 def _ycbv_symmetries(obj_id: int, c_mm: np.ndarray) -> tuple[list, list]:
     """The manifest's BOP-frame symmetries expressed in the YCB-Video model frame (mm)."""
-    from ..manifest import bop_symmetries
     disc, cont = bop_symmetries(obj_id)
     out_d = []
     for S in disc:
@@ -125,7 +118,6 @@ def _ycbv_symmetries(obj_id: int, c_mm: np.ndarray) -> tuple[list, list]:
 
 def load_ycbv_models(root: str | Path, symmetric_obj_ids: Iterable[int] | None = None) -> dict[int, ObjectModel]:
     """ObjectModels (textured.obj, metres -> unit_scale 1000) for every model folder present."""
-    from ..manifest import object_entries, protocol_symmetric_ids
     root = Path(root)
     sym = set(protocol_symmetric_ids() if symmetric_obj_ids is None else symmetric_obj_ids)
     entries = object_entries()
@@ -147,7 +139,6 @@ def load_ycbv_models(root: str | Path, symmetric_obj_ids: Iterable[int] | None =
 
 
 def _mat(meta_path: Path, where: str) -> dict:
-    import scipy.io
     if not meta_path.is_file():
         raise YcbvssError("missing meta.mat of frame", meta_path, where)
     try:
@@ -216,7 +207,6 @@ def load_ycbv_scene(root: str | Path, video: int, models: dict[int, ObjectModel]
     If meta.mat's intrinsic_matrix disagrees with the manifest camera for the video, one
     warning is emitted per video (meta.mat's K is used).
     """
-    from ..manifest import camera_for_video
     root = Path(root)
     d = root / "data" / f"{video:04d}"
     frames = []

@@ -10,6 +10,11 @@
 from __future__ import annotations
 
 import argparse
+import importlib
+import time
+from pathlib import Path
+
+from ..errors import YcbvssError
 
 TRACKERS = {
     "baseline": "ycbvss.refine.tracker:EdgeFlowTracker",
@@ -19,7 +24,6 @@ TRACKERS = {
 
 
 def _ints(text: str, what: str) -> tuple[int, ...]:
-    from ..errors import YcbvssError
     try:
         v = tuple(int(x) for x in str(text).replace(" ", "").split(",") if x)
     except ValueError:
@@ -77,7 +81,7 @@ def register(subparsers) -> None:
 
 
 def cmd_make(args: argparse.Namespace) -> int:
-    from ..errors import YcbvssError
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..eval.benchmark import ProtocolOptions, load_models, load_sequences, make_protocol, summary_text
     from ..eval.benchmark.sources import detect_layout
     from ..io.atomic import dumps_json, write_text_atomic
@@ -85,6 +89,7 @@ def cmd_make(args: argparse.Namespace) -> int:
     layout = detect_layout(args.dataset)
     if args.protocol == "bcot" and layout != "bcot":
         raise YcbvssError("protocol bcot needs a BCOT root (models/*.obj, <scene>/K.txt)", args.dataset)
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.ycbv import parse_videos
     scenes = parse_videos(args.scenes, "--scenes") if args.scenes else None
     bcot_scenes = [x for x in args.bcot_scenes.split(",") if x] if args.bcot_scenes else None
@@ -102,9 +107,6 @@ def cmd_make(args: argparse.Namespace) -> int:
 
 
 def _tracker_factory(spec: str, models: dict):
-    import importlib
-
-    from ..errors import YcbvssError
     target = TRACKERS.get(spec, spec)
     if ":" not in target:
         raise YcbvssError(f"unknown tracker {spec!r} (known: {', '.join(TRACKERS)}, or module:Class)")
@@ -117,8 +119,7 @@ def _tracker_factory(spec: str, models: dict):
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..eval.benchmark import load_models, read_config, run_benchmark
 
     cfg = read_config(args.config)
@@ -133,10 +134,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_score(args: argparse.Namespace) -> int:
-    import time
-    from pathlib import Path
-
-    from ..errors import YcbvssError
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..eval.benchmark import load_models, load_sequences, read_config, read_result_dir, score_benchmark
     from ..eval.benchmark.report import ranking_markdown, write_report
 
@@ -144,6 +142,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     ds = cfg["dataset"]
     root = Path(args.dataset or ds.get("root", ""))
     layout = ds.get("layout", "bop")
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..eval.symmetric_sets import parse_symmetric
     if args.symmetric is None:
         sym, sym_label = ((13,), "paper") if cfg["protocol"] == "ycbv" else ((), "none")

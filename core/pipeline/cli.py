@@ -69,6 +69,12 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def register(subparsers) -> None:
+    """Add ``ycbvss validate`` and ``ycbvss demo``."""
+    _register_validate(subparsers)
+    _register_demo(subparsers)
+
+
+def _register_validate(subparsers) -> None:
     v = subparsers.add_parser(
         "validate", help="synthesise YCBV-SS, perturb GT, refine, evaluate, report (the paper's Tables 4/5)",
         description="Validate bundle pose refinement on data with exact ground truth: (a) synthesise YCBV-SS "
@@ -118,6 +124,8 @@ def register(subparsers) -> None:
     _common(v)
     v.set_defaults(func=_validate)
 
+
+def _register_demo(subparsers) -> None:
     d = subparsers.add_parser(
         "demo", help="no data needed: procedural scene -> Blender -> the whole validate loop -> HTML report",
         description="Build a procedural multi-object table-top scene in code (boxes, cylinders, a mug; textured "
@@ -177,6 +185,7 @@ def _print_summary(summary: dict, what: str, stages=None) -> None:
 
 
 def _validate(args) -> int:
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from .validate import Stages, ValidateOptions, run_validate
     if not args.dataset.exists():
         raise YcbvssError("dataset not found", args.dataset)
@@ -194,6 +203,7 @@ def _validate(args) -> int:
 
 
 def _validate_suite(args) -> int:
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from .suite_run import run_suite
 
     def names(s: str) -> tuple[str, ...]:
@@ -217,6 +227,7 @@ def _validate_suite(args) -> int:
 
 
 def _demo(args) -> int:
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from .demo import DemoOptions, run_demo
     from .validate import Stages
     opts = DemoOptions(out=args.out, quick=args.quick, frames=args.frames, width=args.width, seed=args.seed,

@@ -5,6 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import YcbvssError
+from ..io.atomic import read_json
+from ..io.bop import list_scene_ids, load_bop_scene, load_models
+from ..io.ycbv import load_ycbv_dataset
+from ..procedural.io import OBJECTS_META
 from ..scene import Dataset, Scene
 
 SPLIT_PREFERENCE = ("test", "val", "train_real", "train_synt", "train_pbr", "train")
@@ -32,8 +36,6 @@ def detect_split(root: Path) -> str:
 
 def apply_object_meta(models: dict, models_dir: Path) -> None:
     """Names / textureless flags from ``ycbvss_objects.json`` (written for procedural models)."""
-    from ..io.atomic import read_json
-    from ..procedural.io import OBJECTS_META
     p = Path(models_dir) / OBJECTS_META
     if not p.is_file():
         return
@@ -53,13 +55,10 @@ def open_dataset(path: str | Path, split: str | None = None, scenes: list[int] |
     if not root.is_dir():
         raise YcbvssError("dataset must be a folder (a BOP root or a YCB-Video root)", root)
     if is_ycbv_root(root):
-        from ..io.ycbv import load_ycbv_dataset
         return load_ycbv_dataset(root, scenes), "ycbv", split or "test"
     split = split or detect_split(root)
     if not (root / split).is_dir():
         raise YcbvssError(f"split folder '{split}' not found", root / split)
-    from ..io.bop import load_dataset
-    from ..procedural.io import OBJECTS_META
     names = None if (root / "models" / OBJECTS_META).is_file() else "auto"
     ds = _load_bop(root, split, scenes, names)
     apply_object_meta(ds.models, root / "models")
@@ -67,7 +66,6 @@ def open_dataset(path: str | Path, split: str | None = None, scenes: list[int] |
 
 
 def _load_bop(root: Path, split: str, scenes, names) -> Dataset:
-    from ..io.bop import list_scene_ids, load_bop_scene, load_models
     models = load_models(root / "models", names=names)
     split_dir = root / split
     all_ids = list_scene_ids(split_dir)

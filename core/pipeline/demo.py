@@ -3,12 +3,20 @@ BOP dataset (Blender by default, or the fast OpenGL renderer), then the whole va
 on it (perturb -> refine + ablations -> evaluate -> tables, figures, HTML report)."""
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
+from .. import __version__
 from ..errors import YcbvssError
+from ..gt_info import compute_gt_info
+from ..io.atomic import read_json, write_json_atomic, write_text_atomic
+from ..io.bop import BopSceneWriter
+from ..io.bop_dataset import write_camera_json, write_models_eval, write_targets
+from ..procedural import make_scene, render_fast, write_models
+from ..progress import progress
+from ..render import Renderer
+from .blender_scene import render_blender
 from .validate import Stages, ValidateOptions, run_validate
 
 
@@ -54,16 +62,10 @@ class DemoOptions:
 
 def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
     """Procedural scene -> BOP dataset under ``<out>/dataset`` (models/, test/000001/)."""
-    from ..io.bop import BopSceneWriter
-    from ..procedural import make_scene, render_fast, write_models
-    from ..progress import progress
-
     root = Path(o.out) / "dataset"
     with stages.stage("build procedural scene"):
         scene = make_scene(seed=o.seed, n_frames=o.frames, width=o.width, height=o.height)
     with stages.stage(f"render {o.frames} frames ({o.renderer}, {o.width}x{o.height})"):
-        from ..gt_info import compute_gt_info
-        from ..render import Renderer
         writer = BopSceneWriter(root / "test", scene.scene_id)
         frames = {f.im_id: f for f in scene.frames}
         gl = Renderer()
@@ -74,7 +76,6 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
             writer.write_frame(f, rgb=rgb, depth_mm=depth, masks=masks, masks_visib=masks_visib, gt_info=info)
 
         if o.renderer == "blender":
-            from ..procedural.blender import render_blender
             bar = progress(desc="render (Blender Cycles)", total=len(scene.frames), unit="frame")
             it = render_blender(scene, root / "models", Path(o.out) / "work" / "blender", samples=o.samples,
                                 denoise=o.denoise, workers=o.workers, on_frame=lambda: bar.update(1))
@@ -83,7 +84,6 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
                     write(im_id, rgb, depth)
             finally:
                 bar.close()
-            import shutil                # Blender's EXR/PNG frames are in the dataset now: drop the scratch copy
             shutil.rmtree(Path(o.out) / "work", ignore_errors=True)
         else:
             write_models(scene, root / "models")
@@ -92,9 +92,6 @@ def build_dataset(o: DemoOptions, stages: Stages) -> tuple[Path, object]:
                 write(im_id, rgb, depth)
         writer.close()
     with stages.stage("dataset files (camera.json, targets, models_eval, dataset_info.md)"):
-        from .. import __version__
-        from ..io.atomic import write_text_atomic
-        from ..io.bop_dataset import write_camera_json, write_models_eval, write_targets
         f0 = scene.frames[0]
         write_camera_json(root, f0.camera.K, f0.camera.width, f0.camera.height, f0.depth_scale)
         write_targets(root, "test")
@@ -122,7 +119,6 @@ def run_demo(opts: DemoOptions, stages: Stages | None = None) -> dict:
                                      if opts.init_prj_px is None else "as given"})
     summary = run_validate(vo, stages)
     summary["mode"] = "demo"                 # the validate loop on the demo's own procedural dataset
-    from ..io.atomic import read_json, write_json_atomic
     sp = Path(o.out) / "summary.json"
     if sp.is_file():
         write_json_atomic(sp, {**read_json(sp), "mode": "demo"})

@@ -7,7 +7,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ..io.atomic import atomic_path
 from ..io.images import write_png
+from ..viz import contour_overlay, put_label, pyplot, side_by_side
 
 # RGB colours of the pose sets in overlays and curves
 # (initial is magenta, not red: a red contour vanishes on the red mug and the red cans)
@@ -35,7 +37,6 @@ def render_instances(renderer, models: dict, K: np.ndarray, width: int, height: 
 def panel(image_rgb: np.ndarray, maps: list[tuple[np.ndarray, tuple, int]], label: str) -> np.ndarray:
     """``image_rgb`` with the object outlines of each (obj_map, RGB colour, thickness) drawn in
     order (ycbvss.viz.contour_overlay) and a label in the top-left corner."""
-    from ..viz import contour_overlay, put_label
     im = image_rgb
     for om, color, thick in maps:
         ids = [int(o) for o in np.unique(om) if o != 0]
@@ -68,7 +69,6 @@ def overlay_figure(image_rgb: np.ndarray, gt_map: np.ndarray | None, maps: dict[
     """One row of panels: [original image], the image (+ GT outlines in white), then one panel per
     pose set in ``maps`` (e.g. initial, refined) with its outlines over the thin white GT ones.
     With ``crop`` all panels are cropped to the objects' bounding box."""
-    from ..viz import side_by_side
     box = crop_box([m for m in [gt_map, *maps.values()] if m is not None]) if crop else None
     def c(a):
         return a if (box is None or a is None) else a[box[1]:box[3], box[0]:box[2]]
@@ -96,11 +96,8 @@ def error_curves_png(path: str | Path, series: dict[str, dict], add_max_mm: floa
                      prj_max_px: float = 10.0, title: str = "") -> Path:
     """Accuracy curves (fraction of (view, object) pairs with error <= threshold) of ADD and PRJ
     for each pose set in ``series`` {name: {"add_mm": array, "prj_px": array}}; one PNG, 2 panels."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
-    from ..io.atomic import atomic_path
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), dpi=110)
     for ax, key, xmax, xlabel in ((axes[0], "add_mm", add_max_mm, "ADD threshold (mm)"),

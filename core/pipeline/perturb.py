@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..eval.metrics import add_adds_mm, prj_px
+from ..eval.model_points import ModelPoints
 from ..geometry.so3 import exp_so3
 
 # Per-axis error shape (tx, ty, tz in mm, R in deg) of the paper's "YCBV original" row.
@@ -53,17 +55,6 @@ class PerturbResult:
                 f"{len(self.poses)} (view, object) pairs" + (f" -- {self.message}" if self.message else ""))
 
 
-def add_prj(T_est: np.ndarray, T_gt: np.ndarray, K: np.ndarray, points_mm: np.ndarray) -> tuple[float, float]:
-    """Mean ADD (mm) and mean 2D reprojection error PRJ (px) of one pose over model points."""
-    Xe = points_mm @ T_est[:3, :3].T + T_est[:3, 3]
-    Xg = points_mm @ T_gt[:3, :3].T + T_gt[:3, 3]
-    add = float(np.linalg.norm(Xe - Xg, axis=1).mean())
-    ue = Xe[:, :2] / Xe[:, 2:3] @ K[:2, :2].T
-    ug = Xg[:, :2] / Xg[:, 2:3] @ K[:2, :2].T
-    prj = float(np.linalg.norm(ue - ug, axis=1).mean())
-    return add, prj
-
-
 def _ray_frame(t: np.ndarray) -> np.ndarray:
     """Rows (e_x, e_y, d): d the unit viewing ray to t, e_x/e_y orthonormal, close to camera x/y."""
     d = t / np.linalg.norm(t)
@@ -91,11 +82,15 @@ def _apply(gt: np.ndarray, frames: np.ndarray, z: np.ndarray, shape: np.ndarray,
     return out
 
 
-def _errors(est: np.ndarray, gt: np.ndarray, Ks: np.ndarray, pts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+def _errors(est: np.ndarray, gt: np.ndarray, Ks: np.ndarray, groups: dict) -> tuple[np.ndarray, np.ndarray]:
+    """ADD (mm) and PRJ (px) of every pair, (P,) each: est/gt (P, 4, 4), Ks (P, 3, 3); ``groups``
+    obj_id -> (indices of its pairs, its ModelPoints)."""
     add = np.empty(len(gt))
     prj = np.empty(len(gt))
-    for p in range(len(gt)):
-        add[p], prj[p] = add_prj(est[p], gt[p], Ks[p], pts[p])
+    for idx, mp in groups.values():
+        Re, te, Rg, tg = est[idx, :3, :3], est[idx, :3, 3], gt[idx, :3, :3], gt[idx, :3, 3]
+        add[idx] = add_adds_mm(Re, te, Rg, tg, mp, with_adds=False)[0]
+        prj[idx] = prj_px(Re, te, Rg, tg, Ks[idx], mp.points)
     return add, prj
 
 
@@ -115,7 +110,9 @@ def perturb_poses(gt_poses: dict, Ks: dict, points_mm: dict, target_add_mm: floa
         raise ValueError("target ADD and PRJ must be > 0")
     gt = np.stack([np.asarray(gt_poses[k], np.float64) for k in keys])
     K = np.stack([np.asarray(Ks[k], np.float64) for k in keys])
-    pts = [_subsample(points_mm[k[-1]], max_points) for k in keys]
+    obj = np.array([k[-1] for k in keys])
+    groups = {o: (np.flatnonzero(obj == o), ModelPoints(_subsample(points_mm[o], max_points), k=0))
+              for o in sorted(set(obj.tolist()))}
     frames = np.stack([_ray_frame(T[:3, 3]) for T in gt])
     rng = np.random.default_rng(seed)
     z = rng.standard_normal((len(keys), 6))
@@ -124,7 +121,7 @@ def perturb_poses(gt_poses: dict, Ks: dict, points_mm: dict, target_add_mm: floa
     converged = False
     for _ in range(max_iter):
         est = _apply(gt, frames, z, shape, a, b)
-        add, prj = _errors(est, gt, K, pts)
+        add, prj = _errors(est, gt, K, groups)
         m_add, m_prj = add.mean(), prj.mean()
         if abs(m_add / target_add_mm - 1) < tol and abs(m_prj / target_prj_px - 1) < tol:
             converged = True

@@ -7,14 +7,19 @@ import base64
 import datetime as _dt
 import html
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
+from ..eval.curves import plot_curves
+from ..eval.tables import Row, Table, _fmt, ablation_table, error_table, to_markdown, write_table
 from ..io.atomic import write_json_atomic, write_text_atomic
-
-ERR5 = ("tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px")
+from ..io.images import read_rgb
+from ..io.results import Estimate, write_bop19_csv
+from ..progress import progress
+from ..render import Renderer
+from .figures import error_curves_png, overlay_figure, render_instances, write_overlay
+from .pose_sets import ERR5, PAPER_REFERENCE_ROWS, PAPER_TABLE5, means, object_means
 
 
 # ----------------------------------------------------------------------------- tables
@@ -25,8 +30,6 @@ def _vals(row) -> dict:
 def table4(errs_refined: dict, errs_initial: dict | None, models: dict, caption: str,
            reference: bool = True, extra_label: str = "initial"):
     """Paper Table 4 layout (ycbvss.eval.tables.error_table) + "initial" + the paper's reference rows."""
-    from ..eval.tables import Row, error_table
-    from .validate import PAPER_REFERENCE_ROWS, means, object_means
     names = {o: models[o].label.rstrip("*") for o in errs_refined}
     tl = {o: bool(models[o].textureless) for o in errs_refined}
     extra = [(extra_label, means(errs_initial))] if errs_initial is not None else []
@@ -39,8 +42,6 @@ def table4(errs_refined: dict, errs_initial: dict | None, models: dict, caption:
 
 
 def table5(errs: dict, caption: str):
-    from ..eval.tables import Row, ablation_table
-    from .validate import PAPER_TABLE5, means
     order = [v for v in ("w/o f_edge", "w/o f_point", "w/o f_t", "using all") if v in errs]
     t = ablation_table([(v, means(errs[v])) for v in order], caption=caption)
     for i, (label, vals) in enumerate(PAPER_TABLE5):
@@ -50,7 +51,6 @@ def table5(errs: dict, caption: str):
 
 def summary_table(errs: dict, pr):
     """Mean / median ADD(-S) and PRJ per pose set (initial, refined variants)."""
-    from ..eval.tables import Row, Table
     t = Table(["mean ADD (mm)", "median ADD (mm)", "mean PRJ (px)", "median PRJ (px)"],
               label_header="pose set", digits=2,
               caption=f"Initial poses: GT + calibrated random deviation (targets: ADD {pr.target_add_mm:g} mm, "
@@ -70,7 +70,6 @@ def _nanstat(fn, x):
 
 
 def timings_table(stages):
-    from ..eval.tables import Row, Table
     t = Table(["time (s)"], label_header="stage", digits=1)
     for k, v in stages.times.items():
         t.rows.append(Row(k, [v]))
@@ -79,7 +78,6 @@ def timings_table(stages):
 
 
 def table_html(t, title: str = "") -> str:
-    from ..eval.tables import _fmt
     h = ['<table class="res">']
     if title:
         h.append(f"<caption>{html.escape(title)}</caption>")
@@ -100,13 +98,11 @@ def table_html(t, title: str = "") -> str:
 
 
 def write_tables(t, out_dir: Path, stem: str) -> list[Path]:
-    from ..eval.tables import write_table
     return write_table(t, out_dir, stem)
 
 
 def table_text(t) -> str:
     """Markdown without the caption (for the terminal)."""
-    from ..eval.tables import to_markdown
     cap, t.caption = t.caption, ""
     try:
         return to_markdown(t)
@@ -116,7 +112,6 @@ def table_text(t) -> str:
 
 # ----------------------------------------------------------------------------- pose files
 def write_poses_csv(path: Path, poses: dict) -> Path:
-    from ..io.results import Estimate, write_bop19_csv
     ests = [Estimate(int(k[0]), int(k[1]), int(k[2]), 1.0, np.asarray(T)) for k, T in sorted(poses.items())]
     write_bop19_csv(path, ests)
     return path
@@ -138,10 +133,6 @@ def write_errors_csv(path: Path, errs: dict) -> Path:
 def _overlays(out_dir: Path, scenes, models, sets: dict, gt: dict | None, n: int, originals: dict,
               image_label: str, original_label: str = "original") -> list[Path]:
     """Overlay PNGs for ``n`` frames spread over the first scene. ``sets``: name -> pose dict."""
-    from ..io.images import read_rgb
-    from ..progress import progress
-    from ..render import Renderer
-    from .figures import overlay_figure, render_instances, write_overlay
     if n <= 0 or not scenes:
         return []
     sc = scenes[0]
@@ -172,8 +163,6 @@ def _overlays(out_dir: Path, scenes, models, sets: dict, gt: dict | None, n: int
 
 
 def _curves(out_dir: Path, errs: dict, models: dict) -> list[Path]:
-    from ..eval.curves import plot_curves
-    from .figures import error_curves_png
     series = {name: {"add_mm": np.concatenate([v["add_mm"] for v in e.values()]),
                      "prj_px": np.concatenate([v["prj_px"] for v in e.values()])} for name, e in errs.items()}
     init_add = np.nanmean(series["initial"]["add_mm"]) if "initial" in series else 30.0
@@ -245,35 +234,16 @@ def write_html(path: Path, title: str, info: list[tuple[str, str]], sections: li
 # ----------------------------------------------------------------------------- writers
 def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refined, errs, stages, originals,
                              src_layout, errs_kf: dict | None = None) -> dict:
-    from .validate import means
-    tdir, fdir, pdir = out / "tables", out / "figures", out / "poses"
-    files: list[Path] = []
+    """Everything `ycbvss validate` writes into ``out``: tables (Table 4/5 layouts, summary), pose and
+    error CSVs, curves, overlays, ``summary.json`` and ``report.html``. ``errs``/``errs_kf``: per-variant
+    pose-set errors (:func:`ycbvss.pipeline.pose_sets.pose_set_errors`) on all / the keyframe pairs;
+    ``pr`` the perturbation result; ``refined`` variant -> poses (+ "_stats"). Returns the summary."""
     n_pairs = len(gt)
-    t4 = table4(errs["using all"], errs["initial"], models,
-                caption=f"Bundle pose refinement on {n_pairs} (view, object) pairs with exact GT: mean absolute "
-                        "errors. Textureless objects marked *. Below the last rule: the paper's numbers "
-                        "(Li et al., YCBV-SS) and BCOT's binocular results, for reference only (other data).")
-    files += write_tables(t4, tdir, "table4")
-    t5 = None
-    if errs_kf:
-        n_kf = len({k for e in errs_kf["using all"].values() for k in e["keys"]})
-        t5 = table5({k: v for k, v in errs_kf.items() if k != "initial"},
-                    caption=f"Ablation on the keyframes ({n_kf} (view, object) pairs): the same initial poses refined "
-                            "with one cost term removed (best in bold). Below the rule: the paper's Table 5.")
-        files += write_tables(t5, tdir, "table5")
-    ts = summary_table({**errs, **{f"{k} (keyframes)": v for k, v in (errs_kf or {}).items()
-                                   if k not in ("initial", "using all")}}, pr)
-    files += write_tables(ts, tdir, "summary")
-    files.append(write_poses_csv(pdir / "initial_poses.csv", pr.poses))
-    files.append(write_poses_csv(pdir / "refined_poses.csv", refined["using all"]))
-    for v in refined:
-        if v not in ("using all", "_stats"):
-            files.append(write_poses_csv(pdir / f"refined_{v.replace('/', '').replace(' ', '_')}.csv", refined[v]))
-    files.append(write_errors_csv(pdir / "errors_per_pose.csv",
-                                  {**errs, **{f"{k} (keyframes)": v for k, v in (errs_kf or {}).items()
-                                              if k not in ("initial", "using all")}}))
-    curve_paths = _curves(fdir, errs, models)
-    ov = _overlays(fdir, scenes, models, {"initial": pr.poses, "refined": refined["using all"]}, gt,
+    kf_extra = {f"{k} (keyframes)": v for k, v in (errs_kf or {}).items() if k not in ("initial", "using all")}
+    (t4, t5, ts), files = _validation_tables(out / "tables", errs, errs_kf, kf_extra, models, pr, n_pairs)
+    files += _validation_pose_files(out / "poses", pr, refined, {**errs, **kf_extra})
+    curve_paths = _curves(out / "figures", errs, models)
+    ov = _overlays(out / "figures", scenes, models, {"initial": pr.poses, "refined": refined["using all"]}, gt,
                    opts.overlays, originals, image_label="YCBV-SS" if not opts.gt_exact else "rendered")
     files += curve_paths + ov
     m_init, m_ref = means(errs["initial"]), means(errs["using all"])
@@ -288,23 +258,13 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
         "refine_stats": {v: {str(s): d for s, d in st.items()} for v, st in refined["_stats"].items()},
         "timings_s": dict(stages.times), **(opts.extra_info or {}),
     }
-    tt = timings_table(stages)
-    summary_path = out / "summary.json"
     info = [("dataset", str(opts.dataset)), ("scenes / frames / pairs",
                                              f"{len(scenes)} / {summary['frames']} / {n_pairs}"),
             ("initial poses", pr.summary()),
             ("refined (all terms)", f"mean ADD {m_ref['add_mm']:.3f} mm, mean PRJ {m_ref['prj_px']:.3f} px")]
     info += [(k, str(v)) for k, v in (opts.extra_info or {}).items()]
-    sections = [("Table 4 layout: per-object errors after refinement", table_html(t4)),
-                ]
-    if t5 is not None:
-        sections.append(("Table 5 layout: ablation", table_html(t5)))
-    sections.append(("Initial vs refined", table_html(ts)))
-    sections.append(("Error curves", "".join(_img_tag(p, p.name) for p in curve_paths)))
-    if ov:
-        sections.append(("Overlays (white: GT; red: initial; green: refined)",
-                         "".join(f"<p>{html.escape(p.name)}</p>{_img_tag(p, p.name)}" for p in ov)))
-    sections.append(("Timings", table_html(tt)))
+    sections = _validation_sections(t4, t5, ts, curve_paths, ov, timings_table(stages))
+    summary_path = out / "summary.json"
     write_json_atomic(summary_path, summary)
     files.append(summary_path)
     report = write_html(out / "report.html", opts.title, info, sections, files)
@@ -315,9 +275,53 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
     return summary
 
 
+def _validation_tables(tdir: Path, errs: dict, errs_kf: dict | None, kf_extra: dict, models: dict, pr,
+                       n_pairs: int) -> tuple[tuple, list[Path]]:
+    """((Table 4, Table 5 or None, summary table), files written) of a validation run."""
+    files: list[Path] = []
+    t4 = table4(errs["using all"], errs["initial"], models,
+                caption=f"Bundle pose refinement on {n_pairs} (view, object) pairs with exact GT: mean absolute "
+                        "errors. Textureless objects marked *. Below the last rule: the paper's numbers "
+                        "(Li et al., YCBV-SS) and BCOT's binocular results, for reference only (other data).")
+    files += write_tables(t4, tdir, "table4")
+    t5 = None
+    if errs_kf:
+        n_kf = len({k for e in errs_kf["using all"].values() for k in e["keys"]})
+        t5 = table5({k: v for k, v in errs_kf.items() if k != "initial"},
+                    caption=f"Ablation on the keyframes ({n_kf} (view, object) pairs): the same initial poses refined "
+                            "with one cost term removed (best in bold). Below the rule: the paper's Table 5.")
+        files += write_tables(t5, tdir, "table5")
+    ts = summary_table({**errs, **kf_extra}, pr)
+    files += write_tables(ts, tdir, "summary")
+    return (t4, t5, ts), files
+
+
+def _validation_pose_files(pdir: Path, pr, refined: dict, all_errs: dict) -> list[Path]:
+    """Initial and refined poses of every variant as BOP19 CSVs, and the per-pose errors CSV."""
+    files = [write_poses_csv(pdir / "initial_poses.csv", pr.poses),
+             write_poses_csv(pdir / "refined_poses.csv", refined["using all"])]
+    for v in refined:
+        if v not in ("using all", "_stats"):
+            files.append(write_poses_csv(pdir / f"refined_{v.replace('/', '').replace(' ', '_')}.csv", refined[v]))
+    files.append(write_errors_csv(pdir / "errors_per_pose.csv", all_errs))
+    return files
+
+
+def _validation_sections(t4, t5, ts, curve_paths: list[Path], ov: list[Path], tt) -> list[tuple[str, str]]:
+    """The HTML report's (title, html) sections of a validation run."""
+    sections = [("Table 4 layout: per-object errors after refinement", table_html(t4))]
+    if t5 is not None:
+        sections.append(("Table 5 layout: ablation", table_html(t5)))
+    sections.append(("Initial vs refined", table_html(ts)))
+    sections.append(("Error curves", "".join(_img_tag(p, p.name) for p in curve_paths)))
+    if ov:
+        sections.append(("Overlays (white: GT; red: initial; green: refined)",
+                         "".join(f"<p>{html.escape(p.name)}</p>{_img_tag(p, p.name)}" for p in ov)))
+    sections.append(("Timings", table_html(tt)))
+    return sections
+
+
 def write_real_outputs(out: Path, opts, scenes, models, orig, Ks, refined, diff, stages) -> dict:
-    from ..eval.tables import Row, error_table
-    from .validate import PAPER_REFERENCE_ROWS, means, object_means
     tdir, fdir, pdir = out / "tables", out / "figures", out / "poses"
     files: list[Path] = []
     names = {o: models[o].label for o in diff}

@@ -21,10 +21,19 @@ import shutil
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import numpy as np
-
+from ..convert import convert_models
 from ..errors import YcbvssError
+from ..gt_info import compute_gt_info
+from ..io.atomic import read_json, write_json_atomic
+from ..io.bop import BopSceneWriter, load_models
+from ..io.ycbv import load_ycbv_models
+from ..manifest import object_names
+from ..procedural.ycbv_scene import make_ycbv_scene
+from ..progress import progress
+from ..render import Renderer
 from ..scene import Scene
+from .blender_scene import render_blender
+from .datasets import is_ycbv_root
 
 
 @dataclass(frozen=True)
@@ -102,9 +111,6 @@ def suite_models(src: str | Path, root: Path, obj_ids=None) -> dict:
     """The YCB-V models ``obj_ids`` (default all 21) as BOP models under ``root/models``
     (converted once from an original YCB-Video root, or copied from a BOP root's models/).
     Returns obj_id -> ObjectModel."""
-    from ..io.bop import load_models
-    from .datasets import is_ycbv_root
-
     src = Path(src)
     need = list(range(1, 22)) if obj_ids is None else sorted(set(obj_ids))
     mdir = root / "models"
@@ -115,8 +121,6 @@ def suite_models(src: str | Path, root: Path, obj_ids=None) -> dict:
         if not src.exists():
             raise YcbvssError("dataset not found", src)
         if is_ycbv_root(src):
-            from ..convert import convert_models
-            from ..io.ycbv import load_ycbv_models
             convert_models(load_ycbv_models(src), mdir, obj_ids=need)
         elif (src / "models" / "models_info.json").is_file():
             tmp = root / "models.tmp"
@@ -127,7 +131,6 @@ def suite_models(src: str | Path, root: Path, obj_ids=None) -> dict:
         else:
             raise YcbvssError("the suite needs the YCB-V models: give a YCB-Video root (models/<name>/) or a "
                               "BOP root with models/models_info.json", src)
-    from ..manifest import object_names
     models = load_models(mdir, names={o: n for o, n in object_names().items() if (mdir / f"obj_{o:06d}.ply").is_file()})
     missing = [o for o in need if o not in models]
     if missing:
@@ -140,14 +143,6 @@ def build_scene(spec: SuiteScene, models: dict, root: Path, width: int = 640, he
     """Render one suite scene with Blender into ``root/test/<scene>`` (BOP: rgb, depth, mask,
     mask_visib, scene_gt(_info), scene_camera with the exact cameras). Cached: a complete scene
     rendered from the same spec is kept."""
-    from ..gt_info import compute_gt_info
-    from ..io.atomic import read_json, write_json_atomic
-    from ..io.bop import BopSceneWriter
-    from ..procedural.blender import render_blender
-    from ..procedural.ycbv_scene import make_ycbv_scene
-    from ..progress import progress
-    from ..render import Renderer
-
     sdir = root / "test" / f"{spec.scene_id:06d}"
     marker = sdir / "suite_scene.json"
     h = spec_hash(spec, width, height, samples)

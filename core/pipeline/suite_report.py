@@ -18,13 +18,15 @@ from pathlib import Path
 import numpy as np
 
 from ..eval.tables import ERROR_COLS, ERROR_HEADERS, ERROR_LATEX, Row, Table, write_table
+from ..io.atomic import atomic_path, read_json
+from ..refine.confidence import sigma_scale
+from ..viz import pyplot
+from .pose_sets import PAPER_TABLE5
 
 TARGETS = {"long": (0.25, 0.25, 0.8, 0.2, 0.4), "medium": (0.25, 0.25, 0.8, 0.2, 0.4),
            "short": (0.3, 0.3, 1.5, 0.3, 0.5)}
 BIAS_TARGETS = (0.1, 0.1, 0.3, 0.05)         # tx, ty, tz (mm), R (deg), long clips, from the exact GT
-PAPER_ALL = (0.28, 0.22, 0.85, 0.23, 0.46)
-PAPER_TABLE5 = {"w/o f_edge": (0.29, 0.25, 1.40, 0.29, 0.51), "w/o f_point": (0.34, 0.32, 1.96, 0.36, 0.60),
-                "w/o f_t": (0.28, 0.23, 1.16, 0.26, 0.48), "using all": PAPER_ALL}
+PAPER_ALL = dict(PAPER_TABLE5)["using all"]
 MIN_VISIB = 0.1
 SIGMA_AXES = (("tx_mm", "sigma_tx_mm"), ("ty_mm", "sigma_ty_mm"), ("tz_mm", "sigma_tz_mm"), ("r_deg", "sigma_r_deg"))
 
@@ -89,7 +91,6 @@ def bias_table(rows: list[dict], models: dict, kind: str) -> Table:
 def _scale_of(r: dict, calibrated: bool) -> tuple:
     """The calibration factors the refiner applies to a row's clip: short clips (6-7 deg) are
     narrow-baseline bundles, medium (20 deg) and long (60 deg) wide ones."""
-    from ..refine.confidence import sigma_scale
     return sigma_scale(r["kind"] == "short") if calibrated else (1.0, 1.0, 1.0, 1.0)
 
 
@@ -181,11 +182,8 @@ def capture_table(rows: list[dict]) -> tuple[Table, dict]:
 
 
 def capture_png(curves: dict, path: Path) -> Path:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
-    from ..io.atomic import atomic_path
     fig, ax = plt.subplots(figsize=(5.5, 3.6))
     for k, pts in curves.items():
         if pts:
@@ -221,15 +219,13 @@ def ablation_table(rows: list[dict], kind: str = "long") -> Table:
     best = [min((vals[v][c] for v in vals), default=math.nan) for c in range(5)]
     for v, vv in vals.items():
         t.rows.append(Row(v, vv, bold=[abs(x - b) < 1e-12 for x, b in zip(vv, best)]))
-    for v, pv in PAPER_TABLE5.items():
+    for v, pv in PAPER_TABLE5:
         t.rows.append(Row(f"paper: {v}", list(pv), rule_before=(v == "w/o f_edge")))
     return t
 
 
 def visibility(root: Path, scene_ids) -> dict:
     """{(scene_id, im_id, obj_id): visib_fract} from the suite dataset's scene_gt_info.json files."""
-    from ..io.atomic import read_json
-
     out = {}
     for sid in scene_ids:
         sdir = Path(root) / "test" / f"{sid:06d}"

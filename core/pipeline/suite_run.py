@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import json
 import time
 import warnings
 from dataclasses import dataclass
@@ -22,8 +21,14 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import YcbvssError
+from ..eval.metrics import pose_errors
 from ..io.atomic import write_json_atomic
-from .suite import Clip, SuiteScene, clip_scene, clips_of
+from ..io.bop import load_bop_scene
+from ..progress import progress
+from ..refine.bundle import RefineOptions, refine_scene
+from .perturb import perturb_poses
+from .suite import Clip, SuiteScene, build_suite, clip_scene, clips_of
+from .suite_report import visibility, write_report
 
 ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant", "im_id", "obj_id",
               "tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "dx_mm", "dy_mm", "dz_mm", "init_add_mm", "init_prj_px",
@@ -76,10 +81,6 @@ def _bowl_free_rotation_deg(R_est: np.ndarray, R_gt: np.ndarray, axis: np.ndarra
 
 def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[dict]:
     """Refine one clip from one initialisation; returns the per-pose rows."""
-    from ..eval.metrics import pose_errors
-    from ..refine.bundle import RefineOptions, refine_scene
-    from .perturb import perturb_poses
-
     sc = clip_scene(scene, run.clip)
     gt = {(f.im_id, i.obj_id): i.T_m2c for f in sc.frames for i in f.instances}
     Ks = {k: next(f.camera.K for f in sc.frames if f.im_id == k[0]) for k in gt}
@@ -158,9 +159,6 @@ def plan(specs: list[SuiteScene], kinds=("short", "medium", "long"), seeds=(0,),
 
 def execute(runs: list[Run], root: Path, models: dict, out: Path, opts_kw: dict | None = None) -> Path:
     """Run what is not done yet; append rows to ``out/rows.csv``. Returns the CSV path."""
-    from ..io.bop import load_bop_scene
-    from ..progress import progress
-
     out.mkdir(parents=True, exist_ok=True)
     done_dir = out / "done"
     done_dir.mkdir(exist_ok=True)
@@ -214,9 +212,6 @@ def run_suite(src: str | Path, out: str | Path, suite: str = "ycbv21", scene_ids
               capture_kinds=(), capture_seeds=(0,), quiet: bool = False) -> dict:
     """Build the suite (cached) under ``out/dataset``, run what is not done yet, write the report
     into ``out/report``. Returns {"rows": path, "tables": {name: path}, "n_rows": int}."""
-    from .suite import build_suite, clips_of
-    from .suite_report import visibility, write_report
-
     out = Path(out)
     models, specs = build_suite(src, out / "dataset", suite, scene_ids=scene_ids, quiet=quiet)
     runs = plan(specs, kinds, seeds, ("paper",), variants=tuple(VARIANTS) if ablation else ("using all",),

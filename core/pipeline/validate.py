@@ -9,33 +9,31 @@
 """
 from __future__ import annotations
 
+import concurrent.futures as cf
+import dataclasses
 import math
+import multiprocessing as mp
+import os
+import resource
 import sys
 import time
-import warnings
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import YcbvssError
+from ..io.atomic import read_json, write_json_atomic
+from ..progress import progress
+from ..refine.bundle import RefineOptions, refine_scene
 from ..scene import Scene
+from ..synth.run import SynthOptions, run_synth
+from . import report as rep
+from .datasets import open_dataset, select_frames
+from .perturb import perturb_poses
+from .pose_sets import pose_set_errors
 
-# The paper's numbers (Li et al.): mean absolute tx, ty, tz (mm), R (deg), PRJ (px).
-PAPER_REFERENCE_ROWS = [
-    ("paper (Li et al.) all", (0.28, 0.22, 0.85, 0.23, 0.46)),
-    ("binocular-90° [BCOT]", (0.28, 0.23, 0.28, 0.76, None)),
-    ("binocular-45° [BCOT]", (0.57, 0.28, 1.35, 0.94, None)),
-    ("YCBV original (paper)", (3.03, 2.15, 21.4, 3.27, 4.33)),
-]
-PAPER_TABLE5 = [
-    ("w/o f_edge", (0.29, 0.25, 1.40, 0.29, 0.51)),
-    ("w/o f_point", (0.34, 0.32, 1.96, 0.36, 0.60)),
-    ("w/o f_t", (0.28, 0.23, 1.16, 0.26, 0.48)),
-    ("using all", (0.28, 0.22, 0.85, 0.23, 0.46)),
-]
-ERR5 = ("tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px")
 VARIANTS = {"using all": {}, "w/o f_edge": {"use_edge": False}, "w/o f_point": {"use_point": False},
             "w/o f_t": {"use_temporal": False}}
 
@@ -92,7 +90,6 @@ class Stages:
 
     @staticmethod
     def _cpu() -> tuple[float, float]:
-        import resource
         a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
         return a.ru_utime + a.ru_stime, b.ru_utime + b.ru_stime
 
@@ -115,52 +112,6 @@ class Stages:
         return time.perf_counter() - self.t0
 
 
-# ----------------------------------------------------------------------------- evaluation
-def pose_set_errors(est: dict, gt: dict, Ks: dict, models: dict) -> dict:
-    """Per-object errors of the pose set ``est`` against ``gt`` (both {(scene, im, obj): 4x4}).
-
-    Returns {obj_id: {"keys": [...], "tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm": arrays}}
-    where ``add_mm`` is ADD-S for symmetric objects; a missing estimate gives NaN errors."""
-    from ..eval.metrics import pose_errors
-
-    out = {}
-    for oid in sorted({k[-1] for k in gt}):
-        keys = sorted(k for k in gt if k[-1] == oid)
-        have = [k for k in keys if k in est and np.all(np.isfinite(est[k]))]
-        e = {c: np.full(len(keys), np.nan) for c in (*ERR5, "add_mm")}
-        if have:
-            idx = np.array([keys.index(k) for k in have])
-            m = models[oid]
-            pts = m.vertices_mm if m.path is not None else np.asarray(m.mesh.vertices, np.float64)
-            E = pose_errors(np.stack([est[k][:3, :3] for k in have]), np.stack([est[k][:3, 3] for k in have]),
-                            np.stack([gt[k][:3, :3] for k in have]), np.stack([gt[k][:3, 3] for k in have]),
-                            np.stack([Ks[k] for k in have]), pts, with_adds=bool(m.symmetric))
-            for c in ERR5:
-                e[c][idx] = E[c]
-            e["add_mm"][idx] = E["adds_mm"] if m.symmetric else E["add_mm"]
-        e["keys"] = keys
-        out[oid] = e
-    return out
-
-
-def _cat(per_obj: dict, key: str) -> np.ndarray:
-    return np.concatenate([np.asarray(v[key], np.float64) for v in per_obj.values()]) if per_obj else np.zeros(0)
-
-
-def means(per_obj_or_errs: dict, over_objects: bool = False) -> dict:
-    """Mean of each error over all pairs (``over_objects=False``) of a per-object error dict."""
-    out = {}
-    for c in (*ERR5, "add_mm"):
-        x = _cat(per_obj_or_errs, c)
-        out[c] = float(np.nanmean(x)) if np.isfinite(x).any() else float("nan")
-    return out
-
-
-def object_means(per_obj: dict) -> dict:
-    return {oid: {c: (float(np.nanmean(v[c])) if np.isfinite(v[c]).any() else float("nan"))
-                  for c in (*ERR5, "add_mm")} for oid, v in per_obj.items()}
-
-
 # ----------------------------------------------------------------------------- refinement
 def auto_keyframe_step(n_frames: int, target_keyframes: int = 8) -> int:
     return max(1, int(round(n_frames / target_keyframes)))
@@ -173,8 +124,6 @@ def keyframe_scene(sc: Scene, step: int) -> Scene:
 
 def _refine_job(vname: str, sc: Scene, models: dict, init: dict, kw: dict, opts: "ValidateOptions") -> tuple:
     """One refinement run (a variant on a scene); returns (variant, scene_id, poses, stats)."""
-    from ..refine.bundle import RefineOptions, refine_scene
-
     step = opts.keyframe_step or auto_keyframe_step(len(sc.frames))
     run_sc = sc if vname == "using all" else keyframe_scene(sc, step)
     run_step = step if vname == "using all" else 1
@@ -193,7 +142,6 @@ def _refine_job(vname: str, sc: Scene, models: dict, init: dict, kw: dict, opts:
 
 def _refine_jobs_child(jobs: list, models: dict, init: dict, opts: "ValidateOptions") -> list:
     """Worker-process entry: run several refinement jobs sequentially (no progress bars)."""
-    import os
     os.environ["YCBVSS_NO_PROGRESS"] = "1"
     return [_refine_job(v, sc, models, init, kw, opts) for v, sc, kw in jobs]
 
@@ -201,7 +149,6 @@ def _refine_jobs_child(jobs: list, models: dict, init: dict, opts: "ValidateOpti
 def _portable_models(models: dict) -> dict | None:
     """Copies of the models without loaded meshes (cheap to send to a process); None if a model
     only exists in memory."""
-    import dataclasses
     if any(m.path is None for m in models.values()):
         return None
     return {o: dataclasses.replace(m, _mesh=None) for o, m in models.items()}
@@ -215,10 +162,6 @@ def refine_all(scenes: list[Scene], models: dict, init: dict, variants: dict, op
     variants run on the keyframes only (the joint stage, which is where the terms matter) -- their
     poses therefore exist for the keyframes only. With several cores the ablation runs go to a
     second process while this one runs "using all" (the refiner is mostly single-threaded)."""
-    import os
-
-    from ..progress import progress
-
     out: dict = {v: {} for v in variants}
     stats: dict = {v: {} for v in variants}
     main_jobs = [("using all", sc, variants["using all"]) for sc in scenes if "using all" in variants]
@@ -230,8 +173,6 @@ def refine_all(scenes: list[Scene], models: dict, init: dict, variants: dict, op
     portable = (_portable_models(models) if side_jobs and big and (os.cpu_count() or 1) >= 2 and opts.parallel
                 else None)
     if portable is not None:
-        import concurrent.futures as cf
-        import multiprocessing as mp
         pool = cf.ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"))
         fut = pool.submit(_refine_jobs_child, side_jobs, portable, init, opts)
         bar.set_postfix_str(f"{len(side_jobs)} ablation run(s) in a second process")
@@ -273,15 +214,12 @@ def _gt_of(scenes: list[Scene]) -> tuple[dict, dict]:
 
 def _synthesise(opts: ValidateOptions, stages: Stages, split: str) -> tuple[Path, str]:
     """YCBV-SS from the given real frames into <out>/ycbvss; returns (BOP root, split)."""
-    from ..synth.run import SynthOptions, run_synth
-
     ds_root = Path(opts.dataset)
     out = Path(opts.out) / "ycbvss"
     so = SynthOptions(seed=opts.seed, samples=opts.samples, workers=opts.workers,
                       max_frames=None if opts.frame_step > 1 else opts.max_frames)
     if opts.frame_step > 1 or opts.max_frames:
         # synthesise only the frames the refinement will use
-        from .datasets import open_dataset, select_frames
         ds, _, _ = open_dataset(ds_root, opts.split, opts.scenes)
         ims = sorted({f.im_id for sc in ds.iter_scenes() for f in select_frames(sc, opts.max_frames, opts.frame_step).frames})
         so.frames, so.max_frames = ims, None
@@ -292,8 +230,6 @@ def _synthesise(opts: ValidateOptions, stages: Stages, split: str) -> tuple[Path
 
 def run_validate(opts: ValidateOptions, stages: Stages | None = None) -> dict:
     """The whole loop; returns the summary dict (also written as ``<out>/summary.json``)."""
-    from .datasets import open_dataset, select_frames
-
     opts.check()
     stages = stages or Stages()
     out = Path(opts.out)
@@ -328,7 +264,6 @@ def run_validate(opts: ValidateOptions, stages: Stages | None = None) -> dict:
         missing = sorted({k[-1] for k in gt} - set(models))
         if missing:
             raise YcbvssError(f"objects {missing} have no model", Path(root) / "models")
-    from .perturb import perturb_poses
     with stages.stage("perturb ground truth"):
         pts = {o: (models[o].vertices_mm if models[o].path is not None else np.asarray(models[o].mesh.vertices))
                for o in {k[-1] for k in gt}}
@@ -347,7 +282,6 @@ def run_validate(opts: ValidateOptions, stages: Stages | None = None) -> dict:
             gt_kf = {k: T for k, T in gt.items() if k[:2] in kf}
             errs_kf = {v: pose_set_errors(refined[v], gt_kf, Ks, models) for v in variants}
             errs_kf["initial"] = pose_set_errors(pr.poses, gt_kf, Ks, models)
-    from . import report as rep
     with stages.stage("tables, figures, report"):
         summary = rep.write_validation_outputs(out, opts, scenes, models, gt, Ks, pr, refined, errs, stages,
                                                originals, src_layout, errs_kf)
@@ -357,7 +291,6 @@ def run_validate(opts: ValidateOptions, stages: Stages | None = None) -> dict:
 
 def _finish(summary: dict, stages: Stages) -> None:
     """Record the final timings (incl. the report stage) in summary.json."""
-    from ..io.atomic import read_json, write_json_atomic
     p = Path(summary["out"]) / "summary.json"
     data = read_json(p)
     data["timings_s"] = dict(stages.times)
@@ -377,7 +310,6 @@ def _run_real(opts: ValidateOptions, ds, scenes: list[Scene], stages: Stages) ->
         refined = refine_all(scenes, models, orig, {"using all": {}}, opts)
     with stages.stage("evaluate"):
         diff = pose_set_errors(orig, refined["using all"], Ks, models)   # original measured against refined
-    from . import report as rep
     with stages.stage("tables, figures, report"):
         summary = rep.write_real_outputs(Path(opts.out), opts, scenes, models, orig, Ks, refined, diff, stages)
     _finish(summary, stages)

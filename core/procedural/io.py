@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..io.atomic import write_json_atomic
+from ..io.mesh import compute_models_info, write_ply_mm
 from .scene import ProceduralScene
 
 OBJECTS_META = "ycbvss_objects.json"
@@ -13,8 +14,6 @@ def write_models(scene: ProceduralScene, models_dir: str | Path, set_paths: bool
     """Write ``obj_XXXXXX.ply`` (+ ``obj_XXXXXX.png`` texture) and ``models_info.json`` under
     ``models_dir``, plus ``ycbvss_objects.json`` (names, textureless flags). With ``set_paths`` the
     scene's ObjectModels then point at the written files. Returns obj_id -> PLY path."""
-    from ..io.mesh import compute_models_info, write_ply_mm
-
     models_dir = Path(models_dir)
     paths, info, meta = {}, {}, {}
     for oid, m in sorted(scene.models.items()):
@@ -32,8 +31,6 @@ def write_models(scene: ProceduralScene, models_dir: str | Path, set_paths: bool
 
 def write_table(scene: ProceduralScene, path: str | Path) -> Path:
     """Write the table top as a textured PLY (mm, world frame) with its texture PNG beside it."""
-    from ..io.mesh import write_ply_mm
-
     path = Path(path)
     write_ply_mm(path, scene.table_mesh, texture_name=path.stem + ".png")
     return path

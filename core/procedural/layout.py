@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
 from ..geometry.se3 import inv_T, make_T
 
@@ -35,8 +36,6 @@ def place_on_table(footprints_mm: list[np.ndarray], heights_mm: list[float], rng
     hulls after yaw) are separated by ``gap_mm`` -- tested with the separating-axis theorem.
     Returns T_m2w (4x4, mm) per object. Larger objects are placed first.
     """
-    from scipy.spatial import ConvexHull
-
     hulls = [fp[ConvexHull(fp).vertices] for fp in footprints_mm]
     order = np.argsort([-np.ptp(h, axis=0).prod() for h in hulls])
     placed: dict[int, np.ndarray] = {}

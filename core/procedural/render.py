@@ -10,14 +10,13 @@ from typing import Iterator
 
 import numpy as np
 
+from ..render import Renderer
 from .scene import ProceduralScene
 
 TABLE_KEY = "procedural_table"
 
 
 def _renderer(scene: ProceduralScene, renderer=None):
-    from ..render import Renderer
-
     r = renderer if renderer is not None else Renderer()
     for oid, m in scene.models.items():
         key = ("procedural", scene.seed, oid)

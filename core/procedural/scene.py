@@ -16,6 +16,7 @@ import trimesh
 
 from ..camera import Camera
 from ..geometry.se3 import compose, inv_T, transform_points
+from ..io.mesh import diameter_mm
 from ..scene import Frame, Instance, ObjectModel, Scene
 from . import shapes, textures
 from .layout import YCBV_UW_K, arc_trajectory, baseline_deg, place_on_table, scaled_K
@@ -62,7 +63,6 @@ def _make_models(rng: np.random.Generator) -> dict[int, ObjectModel]:
         5: (shapes.mug(jitter(42), jitter(100), 5.0, textures.plain((0.75, 0.18, 0.15))), True),
     }
     models = {}
-    from ..io.mesh import diameter_mm
     for oid, (mesh, textureless) in meshes.items():
         m = ObjectModel(obj_id=oid, path=None, name=OBJECT_NAMES[oid], unit_scale=1.0,
                         diameter_mm=diameter_mm(mesh.vertices), textureless=textureless)

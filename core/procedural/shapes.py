@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import trimesh
+from PIL import Image
 
 _MARGIN = 0.01
 
@@ -30,8 +31,6 @@ def _textured(vertices_per_face: np.ndarray, uv_per_face: np.ndarray, texture_rg
               normals_per_face: np.ndarray | None = None):
     """Build an unmerged Trimesh (F*3 vertices) with TextureVisuals from (F,3,3) and (F,3,2);
     ``normals_per_face`` (F,3,3) become explicit vertex normals (sharp edges stay sharp)."""
-    from PIL import Image
-
     F = vertices_per_face.shape[0]
     v = vertices_per_face.reshape(-1, 3)
     uv = np.clip(uv_per_face.reshape(-1, 2), 0.0, 1.0)
@@ -148,7 +147,6 @@ def table(size_mm: float, texture_rgb: np.ndarray, repeats: float = 1.0) -> trim
     s = size_mm / 2.0
     tri = np.array([[[-s, -s, 0], [s, -s, 0], [s, s, 0]], [[-s, -s, 0], [s, s, 0], [-s, s, 0]]], np.float64)
     uv = (tri[..., :2] / size_mm + 0.5) * repeats
-    from PIL import Image
     material = trimesh.visual.material.SimpleMaterial(image=Image.fromarray(texture_rgb))
     visual = trimesh.visual.TextureVisuals(uv=uv.reshape(-1, 2), material=material)
     return trimesh.Trimesh(tri.reshape(-1, 3), np.arange(6).reshape(2, 3), visual=visual, process=False)

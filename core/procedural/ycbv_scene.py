@@ -5,12 +5,13 @@ A scene holds 4-7 YCB-V objects resting on a textured table in one of their stab
 few millimetres apart) so that they occlude each other as in YCB-V; a small object may be stacked
 on the top face of a box. The camera follows a slow hand-held path around the objects: a smooth
 arc of ``arc_deg`` degrees with a random-walk wobble, 0.5-1.5 m from the objects. Pure geometry:
-the images are rendered elsewhere (Blender, :mod:`ycbvss.procedural.blender`).
+the images are rendered elsewhere (Blender, :mod:`ycbvss.pipeline.blender_scene`).
 """
 from __future__ import annotations
 
 import numpy as np
 import trimesh
+from scipy.spatial import ConvexHull
 
 from ..camera import Camera
 from ..geometry.se3 import compose, inv_T, make_T, transform_points
@@ -45,7 +46,6 @@ def rest_poses(mesh: trimesh.Trimesh, min_prob: float = 0.08, max_n: int = 3) ->
 
 
 def _hull2d(xy: np.ndarray) -> np.ndarray:
-    from scipy.spatial import ConvexHull
     return xy[ConvexHull(xy).vertices]
 
 
@@ -69,52 +69,71 @@ def place_objects(models: dict[int, ObjectModel], obj_ids: list[int], rng: np.ra
     hulls = {o: _hull2d(verts[o][:, :2]) for o in obj_ids}
     info: dict = {"rest_pose": dict(choice), "stacked_on": {}}
     order = sorted(obj_ids, key=lambda o: -np.ptp(hulls[o], axis=0).prod())
-    stack = None
-    bases = [o for o in order if o in STACK_BASES]
-    smalls = [o for o in order if o in STACK_SMALL]
-    if bases and rng.random() < p_stack:
-        for s in reversed(smalls):
-            base = next((b for b in bases if b != s and np.ptp(hulls[b], axis=0).min() > 0.8 * np.ptp(hulls[s], axis=0).max()),
-                        None)
-            if base is not None:
-                stack = (s, base)
-                break
+    stack = _stack_pair(order, hulls, rng, p_stack)
     if region_radius_mm is None:    # packed: the footprints cover about half of the region
         area = sum(float(np.prod(np.ptp(hulls[o], axis=0))) for o in obj_ids if stack is None or o != stack[0])
         region_radius_mm = float(np.sqrt(2.0 * area / np.pi))
+    rest = {o: rests[o][choice[o]][0] for o in obj_ids}
     placed: dict[int, np.ndarray] = {}
     poly: dict[int, np.ndarray] = {}
     for o in order:
         if stack is not None and o == stack[0]:
             continue
-        for k in range(max_tries):
-            if k and k % 2000 == 0:
-                region_radius_mm *= 1.1
-            yaw = rng.uniform(-np.pi, np.pi)
-            r = region_radius_mm * np.sqrt(rng.random())
-            phi = rng.uniform(-np.pi, np.pi)
-            xy = np.array([r * np.cos(phi), r * np.sin(phi)])
-            P = hulls[o] @ rot_z(yaw)[:2, :2].T + xy
-            gap = rng.uniform(*gap_mm)
-            if all(_separated(P, Q, gap) for Q in poly.values()):
-                placed[o] = make_T(rot_z(yaw), np.array([xy[0], xy[1], 0.0])) @ rests[o][choice[o]][0]
-                poly[o] = P
-                break
-        else:
-            raise RuntimeError("could not place the objects without overlap; enlarge region_radius_mm")
+        placed[o], poly[o], region_radius_mm = _place_one(hulls[o], rest[o], poly, rng, region_radius_mm, gap_mm,
+                                                         max_tries)
     if stack is not None:
         s, b = stack
-        Vb = transform_points(placed[b], np.asarray(meshes[b].vertices))
-        top = float(Vb[:, 2].max())
-        top_pts = Vb[Vb[:, 2] > top - 3.0]
-        c = top_pts[:, :2].mean(axis=0)
-        yaw = rng.uniform(-np.pi, np.pi)
-        c_s = verts[s][:, :2].mean(axis=0)
-        T = make_T(rot_z(yaw), np.zeros(3)) @ rests[s][choice[s]][0]
-        T[:3, 3] += np.array([c[0], c[1], top + 0.5]) - np.r_[rot_z(yaw)[:2, :2] @ c_s, 0.0]
-        placed[s] = T
+        placed[s] = _stacked_pose(np.asarray(meshes[b].vertices), placed[b], verts[s], rest[s], rng)
         info["stacked_on"][s] = b
     return placed, info
+
+
+def _stack_pair(order: list[int], hulls: dict, rng: np.random.Generator, p_stack: float) -> tuple | None:
+    """(small object, box-like base) to stack, with probability ``p_stack`` when a base's footprint
+    is wide enough (its shortest side > 0.8 x the small one's longest), else None."""
+    bases = [o for o in order if o in STACK_BASES]
+    smalls = [o for o in order if o in STACK_SMALL]
+    if bases and rng.random() < p_stack:
+        for s in reversed(smalls):
+            base = next((b for b in bases
+                         if b != s and np.ptp(hulls[b], axis=0).min() > 0.8 * np.ptp(hulls[s], axis=0).max()), None)
+            if base is not None:
+                return s, base
+    return None
+
+
+def _place_one(hull: np.ndarray, rest: np.ndarray, poly: dict, rng: np.random.Generator, region_radius_mm: float,
+               gap_mm: tuple[float, float], max_tries: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """Draw yaw and position (within the region, which grows by 10 % every 2000 tries) until the
+    footprint ``hull`` (K, 2) mm keeps a random gap from every placed footprint in ``poly``.
+    Returns (T_m2w 4x4 mm, placed footprint (K, 2), the region radius now)."""
+    for k in range(max_tries):
+        if k and k % 2000 == 0:
+            region_radius_mm *= 1.1
+        yaw = rng.uniform(-np.pi, np.pi)
+        r = region_radius_mm * np.sqrt(rng.random())
+        phi = rng.uniform(-np.pi, np.pi)
+        xy = np.array([r * np.cos(phi), r * np.sin(phi)])
+        P = hull @ rot_z(yaw)[:2, :2].T + xy
+        gap = rng.uniform(*gap_mm)
+        if all(_separated(P, Q, gap) for Q in poly.values()):
+            return make_T(rot_z(yaw), np.array([xy[0], xy[1], 0.0])) @ rest, P, region_radius_mm
+    raise RuntimeError("could not place the objects without overlap; enlarge region_radius_mm")
+
+
+def _stacked_pose(base_vertices: np.ndarray, T_base: np.ndarray, verts_s: np.ndarray, rest_s: np.ndarray,
+                  rng: np.random.Generator) -> np.ndarray:
+    """T_m2w (mm) of a small object (``verts_s`` (N, 3) in its rest pose ``rest_s``) standing 0.5 mm
+    above the centre of the top face of the base placed at ``T_base``, at a random yaw."""
+    Vb = transform_points(T_base, base_vertices)
+    top = float(Vb[:, 2].max())
+    top_pts = Vb[Vb[:, 2] > top - 3.0]
+    c = top_pts[:, :2].mean(axis=0)
+    yaw = rng.uniform(-np.pi, np.pi)
+    c_s = verts_s[:, :2].mean(axis=0)
+    T = make_T(rot_z(yaw), np.zeros(3)) @ rest_s
+    T[:3, 3] += np.array([c[0], c[1], top + 0.5]) - np.r_[rot_z(yaw)[:2, :2] @ c_s, 0.0]
+    return T
 
 
 def hand_held_path(n_frames: int, target_mm: np.ndarray, distance_mm: float, elevation_deg: float,

@@ -1,8 +1,11 @@
 """One headless moderngl context (EGL; Mesa llvmpipe on CPU-only machines) per process, created lazily."""
 from __future__ import annotations
 
+import ctypes
 import os
 import threading
+
+import moderngl
 
 from ..errors import YcbvssError
 
@@ -20,7 +23,6 @@ def get_context():
     with _LOCK:
         if _CTX is not None and _CTX_PID == os.getpid():
             return _CTX
-        import moderngl
 
         errors = []
         for kwargs in ({"backend": "egl"}, {}):
@@ -48,8 +50,6 @@ def _tune_malloc() -> None:
     if os.environ.get("YCBVSS_RENDER_NO_MALLOPT"):
         return
     try:
-        import ctypes
-
         libc = ctypes.CDLL("libc.so.6")
         m_trim_threshold, m_mmap_threshold = -1, -3
         libc.mallopt(m_mmap_threshold, 32 * 1024 * 1024)

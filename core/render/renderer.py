@@ -19,6 +19,8 @@ from collections import OrderedDict
 from collections.abc import Collection, Hashable, Sequence
 from dataclasses import dataclass, field
 
+import cv2
+import moderngl
 import numpy as np
 
 from ..camera import check_K
@@ -26,8 +28,15 @@ from ..errors import YcbvssError
 from .context import get_context
 from .projection import FRONT_FACE, projection_from_K
 from .shaders import sources
-from .texture import (first_use_order, is_closed_outward, merge_coincident, mesh_texture, mesh_vertex_colors,
-                      smooth_vertex_normals, spatial_order)
+from .texture import (
+    first_use_order,
+    is_closed_outward,
+    merge_coincident,
+    mesh_texture,
+    mesh_vertex_colors,
+    smooth_vertex_normals,
+    spatial_order,
+)
 
 OUTPUTS = ("depth", "instance", "normal", "color", "mask_all")
 GREY = 0.6
@@ -88,6 +97,45 @@ class _GpuMesh:
             self.texture.release()
 
 
+def _mesh_arrays(key: Hashable, mesh_mm) -> tuple[np.ndarray, np.ndarray]:
+    """(V (N, 3) float32 mm, F (M, 3)) of a triangle mesh; YcbvssError if not a valid one."""
+    V = np.asarray(getattr(mesh_mm, "vertices", None) if mesh_mm is not None else None, dtype=np.float32)
+    F = np.asarray(getattr(mesh_mm, "faces", None) if mesh_mm is not None else None)
+    if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
+        raise YcbvssError(f"add_mesh: mesh for key {key!r} must be a triangle mesh with (N,3) vertices "
+                          f"and (M,3) faces", where="ycbvss.render")
+    if not np.all(np.isfinite(V)):
+        raise YcbvssError(f"add_mesh: mesh for key {key!r} has non-finite vertices", where="ycbvss.render")
+    if len(F) and (F.min() < 0 or F.max() >= len(V)):
+        raise YcbvssError(f"add_mesh: mesh for key {key!r} has face indices out of range",
+                          where="ycbvss.render")
+    return V, F
+
+
+def _vertex_attributes(key: Hashable, mesh_mm, n: int, texture_rgb: np.ndarray | None) -> tuple:
+    """Per-vertex (UV (n, 2) float32 in GL convention, colours (n, 3) float32, normals (n, 3)) and
+    the texture image (H, W, >=3) uint8 to use, or None when the mesh is not textured."""
+    uv, image = mesh_texture(mesh_mm)
+    if texture_rgb is not None:
+        image = np.asarray(texture_rgb)
+        if image.ndim != 3 or image.shape[2] < 3 or image.dtype != np.uint8:
+            raise YcbvssError(f"add_mesh: texture for key {key!r} must be (H,W,3) uint8, got "
+                              f"{image.shape} {image.dtype}", where="ycbvss.render")
+        if uv is None:
+            warnings.warn(f"add_mesh: texture given for mesh {key!r} without UV; rendering it grey",
+                          stacklevel=3)
+    vcol = mesh_vertex_colors(mesh_mm)
+    textured = uv is not None and image is not None
+    if vcol is None:
+        vcol = np.full((n, 3), 1.0 if textured else GREY, dtype=np.float32)
+    if uv is None:
+        uv_gl = np.zeros((n, 2), dtype=np.float32)
+    else:
+        uv_gl = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)  # image row 0 = t 0
+    normals = smooth_vertex_normals(mesh_mm)
+    return uv_gl, vcol, normals, (image if textured else None)
+
+
 class Renderer:
     """Offscreen OpenGL renderer of (mesh, pose) lists with mutual occlusion.
 
@@ -131,51 +179,30 @@ class Renderer:
         Colour: ``texture_rgb`` (H, W, 3) uint8 with the mesh's UV if given, else the mesh's own texture
         (TextureVisuals), else its vertex colours (ColorVisuals), else grey 0.6.
         """
-        V = np.asarray(getattr(mesh_mm, "vertices", None) if mesh_mm is not None else None, dtype=np.float32)
-        F = np.asarray(getattr(mesh_mm, "faces", None) if mesh_mm is not None else None)
-        if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
-            raise YcbvssError(f"add_mesh: mesh for key {key!r} must be a triangle mesh with (N,3) vertices "
-                              f"and (M,3) faces", where="ycbvss.render")
-        if not np.all(np.isfinite(V)):
-            raise YcbvssError(f"add_mesh: mesh for key {key!r} has non-finite vertices", where="ycbvss.render")
-        if len(F) and (F.min() < 0 or F.max() >= len(V)):
-            raise YcbvssError(f"add_mesh: mesh for key {key!r} has face indices out of range",
-                              where="ycbvss.render")
+        V, F = _mesh_arrays(key, mesh_mm)
         if key in self._meshes:
             self.remove_mesh(key)
-
-        uv, image = mesh_texture(mesh_mm)
-        if texture_rgb is not None:
-            image = np.asarray(texture_rgb)
-            if image.ndim != 3 or image.shape[2] < 3 or image.dtype != np.uint8:
-                raise YcbvssError(f"add_mesh: texture for key {key!r} must be (H,W,3) uint8, got "
-                                  f"{image.shape} {image.dtype}", where="ycbvss.render")
-            if uv is None:
-                warnings.warn(f"add_mesh: texture given for mesh {key!r} without UV; rendering it grey",
-                              stacklevel=2)
-        vcol = mesh_vertex_colors(mesh_mm)
-        textured = uv is not None and image is not None
-        if vcol is None:
-            vcol = np.full((len(V), 3), 1.0 if textured else GREY, dtype=np.float32)
-        if uv is None:
-            uv_gl = np.zeros((len(V), 2), dtype=np.float32)
-        else:
-            uv_gl = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)  # image row 0 = t 0
-        normals = smooth_vertex_normals(mesh_mm)
-
+        uv_gl, vcol, normals, image = _vertex_attributes(key, mesh_mm, len(V), texture_rgb)
         cull = is_closed_outward(V, F)
         # locality order (faces by Z-order of centroids, vertices by first use): same images, faster raster
         _, vorder, F = spatial_order(V, F)
         V, normals, uv_gl, vcol = V[vorder], normals[vorder], uv_gl[vorder], vcol[vorder]
         Vm, Fm, _ = merge_coincident(V, F)
         Vm, Fm = first_use_order(Vm, Fm)
-
-        ctx = self.ctx
         g = _GpuMesh(n_faces=len(F), cull=cull)
         if len(V):
             lo, hi = V.min(0).astype(np.float64), V.max(0).astype(np.float64)
             g.centre = 0.5 * (lo + hi)
             g.radius = float(np.linalg.norm(V - g.centre, axis=1).max()) * (1 + 1e-6) + 1e-6
+        self._upload_buffers(g, (V, F), (Vm, Fm), normals, uv_gl, vcol)
+        g.texture = self._upload_texture(image[..., :3]) if image is not None else None
+        self._meshes[key] = g
+
+    def _upload_buffers(self, g: _GpuMesh, mesh: tuple, merged: tuple, normals, uv_gl, vcol) -> None:
+        """Vertex buffers (positions, merged positions, normals, UV, colours) and the index buffers of
+        ``mesh`` = (V (N, 3) mm, F (M, 3)) and its coincident-vertex-merged copy ``merged``."""
+        (V, F), (Vm, Fm) = mesh, merged
+        ctx = self.ctx
         g.vbos = {
             "in_pos_merged": ctx.buffer(np.ascontiguousarray(Vm, dtype=np.float32).tobytes()),
             "in_pos": ctx.buffer(np.ascontiguousarray(V, dtype=np.float32).tobytes()),
@@ -189,8 +216,6 @@ class Renderer:
         g.ibo = ctx.buffer(np.ascontiguousarray(F, dtype=itype[g.index_size]).tobytes()) if len(F) else None
         g.ibo_merged = (ctx.buffer(np.ascontiguousarray(Fm, dtype=itype[g.index_size_merged]).tobytes())
                         if len(F) else None)
-        g.texture = self._upload_texture(image[..., :3]) if textured else None
-        self._meshes[key] = g
 
     def remove_mesh(self, key: Hashable) -> None:
         g = self._meshes.pop(key, None)
@@ -212,9 +237,6 @@ class Renderer:
             self._white = None
 
     def _upload_texture(self, image: np.ndarray):
-        import cv2
-        import moderngl
-
         H, W = image.shape[:2]
         s = self.max_texture_px / max(H, W)
         if s < 1.0:
@@ -297,45 +319,9 @@ class Renderer:
         if self._pid != os.getpid():
             raise YcbvssError("render: this Renderer was created in another process (fork); GL objects do not "
                               "survive a fork -- create the Renderer inside the worker", where="ycbvss.render")
-        K = check_K(K, where="ycbvss.render")
-        if isinstance(outputs, str):
-            outputs = (outputs,)
-        width, height = int(width), int(height)
-        max_vp = self._max_viewport
-        if not (0 < width <= max_vp and 0 < height <= max_vp):
-            raise YcbvssError(f"render: image size {width}x{height} out of range (1..{max_vp})",
-                              where="ycbvss.render")
-        outs = set(outputs)
-        bad = outs - set(OUTPUTS)
-        if bad:
-            raise YcbvssError(f"render: unknown outputs {sorted(bad)}; choose from {OUTPUTS}", where="ycbvss.render")
-        if not (0 < znear_mm < zfar_mm) or not np.isfinite(zfar_mm):
-            raise YcbvssError(f"render: need 0 < znear_mm < zfar_mm, got {znear_mm}, {zfar_mm}",
-                              where="ycbvss.render")
+        K, width, height, outs = self._checked_request(K, width, height, outputs, znear_mm, zfar_mm)
         items = list(items)
-        if scales is None:
-            scales = [1.0] * len(items)
-        scales = [float(s) for s in scales]
-        if len(scales) != len(items):
-            raise YcbvssError(f"render: {len(scales)} scales for {len(items)} items", where="ycbvss.render")
-        mvs, rots = [], []
-        for k, ((key, T), s) in enumerate(zip(items, scales)):
-            if key not in self._meshes:
-                raise YcbvssError(f"render: item {k} uses mesh key {key!r} which was not added "
-                                  f"(known: {list(self._meshes)[:10]})", where="ycbvss.render")
-            T = np.asarray(T, dtype=np.float64)
-            if T.shape == (3, 4):
-                T = np.vstack([T, [0, 0, 0, 1]])
-            if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-                raise YcbvssError(f"render: item {k} ({key!r}) pose must be a finite 4x4 matrix, got shape "
-                                  f"{T.shape}", where="ycbvss.render")
-            if not (np.isfinite(s) and s > 0):
-                raise YcbvssError(f"render: item {k} ({key!r}) scale must be > 0, got {s}", where="ycbvss.render")
-            mv = T.copy()
-            mv[:3, :3] = T[:3, :3] * s
-            mvs.append(mv)
-            rots.append(T[:3, :3])
-
+        mvs, rots, scales = self._model_views(items, scales)
         P = projection_from_K(K, width, height, znear_mm, zfar_mm)
         visible = [k for k in range(len(items)) if self._in_frustum(P, items[k][0], mvs[k], scales[k])]
         # never cull back faces of an item whose bounding sphere contains the camera (we may be inside it)
@@ -362,6 +348,52 @@ class Renderer:
                 out.depth_all_mm.append(d)
         return out
 
+    def _checked_request(self, K, width, height, outputs, znear_mm: float, zfar_mm: float) -> tuple:
+        """(K (3, 3), width, height, set of outputs) of a render call, checked."""
+        K = check_K(K, where="ycbvss.render")
+        if isinstance(outputs, str):
+            outputs = (outputs,)
+        width, height = int(width), int(height)
+        max_vp = self._max_viewport
+        if not (0 < width <= max_vp and 0 < height <= max_vp):
+            raise YcbvssError(f"render: image size {width}x{height} out of range (1..{max_vp})",
+                              where="ycbvss.render")
+        outs = set(outputs)
+        bad = outs - set(OUTPUTS)
+        if bad:
+            raise YcbvssError(f"render: unknown outputs {sorted(bad)}; choose from {OUTPUTS}", where="ycbvss.render")
+        if not (0 < znear_mm < zfar_mm) or not np.isfinite(zfar_mm):
+            raise YcbvssError(f"render: need 0 < znear_mm < zfar_mm, got {znear_mm}, {zfar_mm}",
+                              where="ycbvss.render")
+        return K, width, height, outs
+
+    def _model_views(self, items: list, scales) -> tuple[list, list, list]:
+        """Per item the model-view matrix (4x4, rotation scaled by the item's scale, mm), the rotation
+        (3, 3) and the scale; checks keys, poses (4x4 or 3x4, finite) and scales (> 0)."""
+        if scales is None:
+            scales = [1.0] * len(items)
+        scales = [float(s) for s in scales]
+        if len(scales) != len(items):
+            raise YcbvssError(f"render: {len(scales)} scales for {len(items)} items", where="ycbvss.render")
+        mvs, rots = [], []
+        for k, ((key, T), s) in enumerate(zip(items, scales)):
+            if key not in self._meshes:
+                raise YcbvssError(f"render: item {k} uses mesh key {key!r} which was not added "
+                                  f"(known: {list(self._meshes)[:10]})", where="ycbvss.render")
+            T = np.asarray(T, dtype=np.float64)
+            if T.shape == (3, 4):
+                T = np.vstack([T, [0, 0, 0, 1]])
+            if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+                raise YcbvssError(f"render: item {k} ({key!r}) pose must be a finite 4x4 matrix, got shape "
+                                  f"{T.shape}", where="ycbvss.render")
+            if not (np.isfinite(s) and s > 0):
+                raise YcbvssError(f"render: item {k} ({key!r}) scale must be > 0, got {s}", where="ycbvss.render")
+            mv = T.copy()
+            mv[:3, :3] = T[:3, :3] * s
+            mvs.append(mv)
+            rots.append(T[:3, :3])
+        return mvs, rots, scales
+
     def _in_frustum(self, P: np.ndarray, key: Hashable, mv: np.ndarray, scale: float) -> bool:
         """False if the item's bounding sphere is entirely outside one of the six clip planes (skip it)."""
         g = self._meshes[key]
@@ -379,8 +411,9 @@ class Renderer:
         return float(np.linalg.norm(mv[:3, :3] @ g.centre + mv[:3, 3])) < g.radius * scale + znear_mm
 
     def _draw(self, P, width, height, items, mvs, rots, which, with_color, with_normal, shade, read) -> dict:
-        import moderngl
-
+        """Draw the items ``which`` into a cleared framebuffer of ``width`` x ``height`` and read back the
+        outputs named in ``read`` (depth (H, W) float32 mm, instance (H, W) int32, colour (H, W, 3)
+        uint8, normal (H, W, 3) float32)."""
         ctx = self.ctx
         fb = self._fbo(width, height, with_color, with_normal)
         fbo = fb["fbo"]
@@ -420,31 +453,35 @@ class Renderer:
                 (ctx.enable if cull else ctx.disable)(moderngl.CULL_FACE)
                 culling = cull
             self._vao(g, with_color, with_normal).render(moderngl.TRIANGLES)
+        return _read_outputs(fb, height, width, read)
 
-        res = {}
-        H, W = height, width
-        gi = fb["index"]["geom"]
-        if read & {"depth", "instance"} == {"depth"}:
-            depth = np.empty((H, W), dtype=np.float32)
-            fbo.read_into(depth, components=1, attachment=gi, dtype="f4", alignment=1)
-            res["depth"] = depth
-        elif read & {"depth", "instance"}:
-            geom = fb.setdefault("geom_buf", np.empty((H, W, 2), dtype=np.float32))  # reused staging buffer
-            fbo.read_into(geom, components=2, attachment=gi, dtype="f4", alignment=1)
-            if "depth" in read:
-                res["depth"] = np.ascontiguousarray(geom[..., 0])
-            inst = np.empty((H, W), dtype=np.int32)
-            np.copyto(inst, geom[..., 1], casting="unsafe")
-            res["instance"] = inst
-        if "color" in read:
-            col = np.empty((H, W, 3), dtype=np.uint8)
-            fbo.read_into(col, components=3, attachment=fb["index"]["color"], dtype="f1", alignment=1)
-            res["color"] = col
-        if "normal" in read:
-            nrm = np.empty((H, W, 3), dtype=np.float32)  # unit length from the shader, 0 on background
-            fbo.read_into(nrm, components=3, attachment=fb["index"]["normal"], dtype="f4", alignment=1)
-            res["normal"] = nrm
-        return res
+
+def _read_outputs(fb: dict, H: int, W: int, read) -> dict:
+    """Read the framebuffer ``fb``'s attachments named in ``read`` into numpy images (H, W[, C])."""
+    fbo = fb["fbo"]
+    res = {}
+    gi = fb["index"]["geom"]
+    if read & {"depth", "instance"} == {"depth"}:
+        depth = np.empty((H, W), dtype=np.float32)
+        fbo.read_into(depth, components=1, attachment=gi, dtype="f4", alignment=1)
+        res["depth"] = depth
+    elif read & {"depth", "instance"}:
+        geom = fb.setdefault("geom_buf", np.empty((H, W, 2), dtype=np.float32))  # reused staging buffer
+        fbo.read_into(geom, components=2, attachment=gi, dtype="f4", alignment=1)
+        if "depth" in read:
+            res["depth"] = np.ascontiguousarray(geom[..., 0])
+        inst = np.empty((H, W), dtype=np.int32)
+        np.copyto(inst, geom[..., 1], casting="unsafe")
+        res["instance"] = inst
+    if "color" in read:
+        col = np.empty((H, W, 3), dtype=np.uint8)
+        fbo.read_into(col, components=3, attachment=fb["index"]["color"], dtype="f1", alignment=1)
+        res["color"] = col
+    if "normal" in read:
+        nrm = np.empty((H, W, 3), dtype=np.float32)  # unit length from the shader, 0 on background
+        fbo.read_into(nrm, components=3, attachment=fb["index"]["normal"], dtype="f4", alignment=1)
+        res["normal"] = nrm
+    return res
 
 
 def _release_fbo(fb: dict) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import trimesh
 
 
 def mesh_texture(mesh) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -102,8 +103,6 @@ def first_use_order(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray
 def is_closed_outward(vertices: np.ndarray, faces: np.ndarray) -> bool:
     """True if the surface (coincident vertices merged) has no boundary edge, consistent winding and positive
     signed volume, i.e. back faces are never visible from outside and can be culled."""
-    import trimesh
-
     Vm, Fm, _ = merge_coincident(vertices, faces)
     if len(Fm) < 4:
         return False
@@ -125,8 +124,6 @@ def smooth_vertex_normals(mesh) -> np.ndarray:
     vertex normals are computed on the mesh with coincident vertices merged (OBJ files duplicate vertices at
     UV seams; merging keeps the shading smooth across seams) and mapped back to the original vertices.
     """
-    import trimesh
-
     V = np.asarray(mesh.vertices, dtype=np.float64)
     F = np.asarray(mesh.faces, dtype=np.int64)
     if "vertex_normals" in mesh._cache:  # normals given by the file / caller

@@ -128,13 +128,45 @@ def _pose_json(T: np.ndarray) -> dict:
 def make_protocol(sequences: list[Sequence], dataset_info: dict, options: ProtocolOptions,
                   models: dict | None = None) -> dict:
     """The benchmark configuration (JSON-ready dict, see :data:`SCHEMA_DOC`). ``models`` (obj_id ->
-    ObjectModel) are needed for the occluder test (YCB-V) and for object names."""
+    ObjectModel) are needed for the occluder test (YCB-V) and for object names.
+
+    Subsequences are drawn in rounds (:func:`_round_plan`), longest length first, each from a
+    sequence chosen with probability proportional to its remaining frame budget (:func:`_draw_frames`),
+    its objects those visible in the first frame minus possibly one occluder (:func:`_objects_at`)."""
     opt = options.resolved()
     rng = np.random.default_rng(opt.seed)
     seqs = [s for s in sequences if len(s.im_ids) >= 2]
     if not seqs:
         raise YcbvssError("no sequence with at least 2 frames")
-    smin, smax = opt.steps
+    per_round, rounds, n_total = _round_plan(seqs, opt)
+    budget = np.array([opt.coverage * len(s.im_ids) for s in seqs], dtype=np.float64)
+    points = _SubsampledPoints(models, opt.max_points)
+    subs = []
+    for _ in range(rounds):
+        for L in sorted(opt.lengths, reverse=True):
+            for _k in range(per_round[L]):
+                si, frames, step, direction = _draw_frames(rng, seqs, budget, L, opt.steps)
+                budget[si] -= L
+                s = seqs[si]
+                objs, removed = _objects_at(rng, s, frames[0], opt, models, points)
+                subs.append(_subsequence(len(subs), s, frames, L, step, direction, objs, removed))
+    obj_ids = sorted({o for s in seqs for fr in s.gt.values() for o in fr})
+    names = {str(o): (models[o].label if models is not None and o in models else str(o)) for o in obj_ids}
+    ds = {**dataset_info, "n_sequences": len(seqs), "n_frames": int(n_total), "objects": names}
+    opts = {"lengths": list(opt.lengths), "steps": list(opt.steps), "coverage": opt.coverage,
+            "remove_prob": opt.remove_prob if opt.remove_occluder else 0.0,
+            "exclude_obj_ids": list(opt.exclude_obj_ids), "remove_occluder": opt.remove_occluder,
+            "occlusion_min_overlap": opt.occlusion_min_overlap, "per_round": {str(k): v for k, v in per_round.items()},
+            "rounds": rounds}
+    return {"version": VERSION, "protocol": opt.protocol, "seed": int(opt.seed), "dataset": ds, "options": opts,
+            "subsequences": subs}
+
+
+def _round_plan(seqs: list[Sequence], opt) -> tuple[dict, int, int]:
+    """(subsequences of each length per round, number of rounds, frames in all sequences): one round
+    covers about lcm(lengths) frames equally per length; the rounds reach ``opt.coverage`` of the
+    frames. Raises when a length fits no sequence at the smallest step."""
+    smin = opt.steps[0]
     lmax = max(opt.lengths)
     lcm = int(np.lcm.reduce(np.array(opt.lengths, dtype=np.int64)))
     unit = lcm if lcm <= 4 * lmax else lmax       # exact equality whenever the lcm is small
@@ -148,64 +180,70 @@ def make_protocol(sequences: list[Sequence], dataset_info: dict, options: Protoc
             raise YcbvssError(f"no sequence fits a subsequence of {L} frames with step >= {smin}: the longest "
                               f"has {len(longest.im_ids)} frames; set shorter --lengths or smaller --steps",
                               where=f"scene {longest.scene_id}")
-    budget = np.array([opt.coverage * len(s.im_ids) for s in seqs], dtype=np.float64)
-    points: dict[int, np.ndarray] = {}
+    return per_round, rounds, n_total
 
-    def pts(o: int) -> np.ndarray:
-        if o not in points:
-            v = np.asarray(models[o].vertices_mm, dtype=np.float64)
-            stride = max(1, len(v) // opt.max_points)
-            points[o] = v[::stride]
-        return points[o]
 
-    subs = []
-    order = sorted(opt.lengths, reverse=True)
-    for _ in range(rounds):
-        for L in order:
-            for _k in range(per_round[L]):
-                fits = np.array([(L - 1) * smin + 1 <= len(s.im_ids) for s in seqs])
-                w = np.where(fits, np.maximum(budget, 1.0), 0.0)
-                si = int(rng.choice(len(seqs), p=w / w.sum()))
-                s = seqs[si]
-                n = len(s.im_ids)
-                s_fit = min(smax, (n - 1) // (L - 1))
-                step = int(rng.integers(smin, s_fit + 1))
-                span = (L - 1) * step + 1
-                start = int(rng.integers(0, n - span + 1))
-                direction = int(rng.choice([1, -1]))
-                pos = start + step * np.arange(L)
-                if direction < 0:
-                    pos = pos[::-1]
-                frames = [int(s.im_ids[p]) for p in pos]
-                budget[si] -= L
-                f0 = frames[0]
-                objs = [o for o in s.objects_in(f0) if o not in opt.exclude_obj_ids]
-                removed: list[int] = []
-                if opt.remove_occluder and len(objs) >= 2 and models is not None:
-                    occ = occluders(s.gt[f0], s.K[f0], {o: pts(o) for o in objs}, objs, opt.occlusion_min_overlap)
-                    u = float(rng.random())
-                    if occ and u < opt.remove_prob:
-                        r = int(occ[int(rng.integers(len(occ)))])
-                        removed = [r]
-                        objs = [o for o in objs if o != r]
-                K0 = s.K[f0]
-                sub = {"id": len(subs), "scene_id": int(s.scene_id), "sequence": s.name, "frames": frames,
-                       "length": L, "step": step, "direction": direction, "objects": objs, "removed": removed,
-                       "K": [float(x) for x in np.asarray(K0).reshape(9)],
-                       "init": {str(o): _pose_json(s.gt[f0][o]) for o in objs}}
-                if np.abs(np.stack([s.K[f] for f in frames]) - K0).max() > 1e-9:
-                    sub["K_frames"] = {str(f): [float(x) for x in np.asarray(s.K[f]).reshape(9)] for f in frames}
-                subs.append(sub)
-    obj_ids = sorted({o for s in seqs for fr in s.gt.values() for o in fr})
-    names = {str(o): (models[o].label if models is not None and o in models else str(o)) for o in obj_ids}
-    ds = {**dataset_info, "n_sequences": len(seqs), "n_frames": int(n_total), "objects": names}
-    opts = {"lengths": list(opt.lengths), "steps": [smin, smax], "coverage": opt.coverage,
-            "remove_prob": opt.remove_prob if opt.remove_occluder else 0.0,
-            "exclude_obj_ids": list(opt.exclude_obj_ids), "remove_occluder": opt.remove_occluder,
-            "occlusion_min_overlap": opt.occlusion_min_overlap, "per_round": {str(k): v for k, v in per_round.items()},
-            "rounds": rounds}
-    return {"version": VERSION, "protocol": opt.protocol, "seed": int(opt.seed), "dataset": ds, "options": opts,
-            "subsequences": subs}
+def _draw_frames(rng, seqs: list[Sequence], budget: np.ndarray, L: int, steps: tuple) -> tuple:
+    """One subsequence of ``L`` frames: (sequence index, frame ids in tracking order, step, direction
+    +1/-1); the sequence drawn with probability proportional to its remaining budget (at least 1)."""
+    smin, smax = steps
+    fits = np.array([(L - 1) * smin + 1 <= len(s.im_ids) for s in seqs])
+    w = np.where(fits, np.maximum(budget, 1.0), 0.0)
+    si = int(rng.choice(len(seqs), p=w / w.sum()))
+    s = seqs[si]
+    n = len(s.im_ids)
+    s_fit = min(smax, (n - 1) // (L - 1))
+    step = int(rng.integers(smin, s_fit + 1))
+    span = (L - 1) * step + 1
+    start = int(rng.integers(0, n - span + 1))
+    direction = int(rng.choice([1, -1]))
+    pos = start + step * np.arange(L)
+    if direction < 0:
+        pos = pos[::-1]
+    return si, [int(s.im_ids[p]) for p in pos], step, direction
+
+
+class _SubsampledPoints:
+    """Model points (mm) of each object, at most about ``max_points`` (every k-th vertex), cached."""
+
+    def __init__(self, models: dict | None, max_points: int):
+        self.models, self.max_points, self.points = models, max_points, {}
+
+    def __call__(self, o: int) -> np.ndarray:
+        if o not in self.points:
+            v = np.asarray(self.models[o].vertices_mm, dtype=np.float64)
+            self.points[o] = v[::max(1, len(v) // self.max_points)]
+        return self.points[o]
+
+
+def _objects_at(rng, s: Sequence, f0: int, opt, models: dict | None, points: _SubsampledPoints) -> tuple:
+    """(tracked obj_ids, removed obj_ids) of a subsequence starting at frame ``f0``: the GT objects
+    there except the excluded ones; with probability ``remove_prob`` one occluder is removed."""
+    objs = [o for o in s.objects_in(f0) if o not in opt.exclude_obj_ids]
+    removed: list[int] = []
+    if opt.remove_occluder and len(objs) >= 2 and models is not None:
+        occ = occluders(s.gt[f0], s.K[f0], {o: points(o) for o in objs}, objs, opt.occlusion_min_overlap)
+        u = float(rng.random())
+        if occ and u < opt.remove_prob:
+            r = int(occ[int(rng.integers(len(occ)))])
+            removed = [r]
+            objs = [o for o in objs if o != r]
+    return objs, removed
+
+
+def _subsequence(idx: int, s: Sequence, frames: list, L: int, step: int, direction: int, objs: list,
+                 removed: list) -> dict:
+    """The JSON entry of one subsequence (init = the GT poses of the first frame; per-frame K only
+    when the intrinsics change within it)."""
+    f0 = frames[0]
+    K0 = s.K[f0]
+    sub = {"id": idx, "scene_id": int(s.scene_id), "sequence": s.name, "frames": frames,
+           "length": L, "step": step, "direction": direction, "objects": objs, "removed": removed,
+           "K": [float(x) for x in np.asarray(K0).reshape(9)],
+           "init": {str(o): _pose_json(s.gt[f0][o]) for o in objs}}
+    if np.abs(np.stack([s.K[f] for f in frames]) - K0).max() > 1e-9:
+        sub["K_frames"] = {str(f): [float(x) for x in np.asarray(s.K[f]).reshape(9)] for f in frames}
+    return sub
 
 
 # ------------------------------------------------------------------------------ reading

@@ -11,7 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io.atomic import atomic_path, write_json_atomic, write_text_atomic
+from ...io.atomic import write_json_atomic, write_text_atomic
+from ...viz import pyplot
+from ..curves import save_png, style_accuracy_axes
 from ..scores import ADD_BOUND_MM, PRJ_BOUND_PX, accuracy_curve
 from .score import ERROR_FIELDS, GtIndex, TrackerScores
 
@@ -46,17 +48,24 @@ def _f(v, d: int = 1) -> str:
     return "-" if v is None or v != v else f"{v:.{d}f}"
 
 
+def _object_cells(r: dict, obj_ids: list, best: dict, n_rows: int, bold) -> list[str]:
+    """The per-object ADD-PRJ-AUC cells of one ranking row; the best of each column (when there
+    are several rows) passed through ``bold``."""
+    cells = []
+    for o in obj_ids:
+        v = r["per_object"].get(o)
+        c = _f(v)
+        cells.append(bold(c) if v is not None and n_rows > 1 and v == best[o] else c)
+    return cells
+
+
 def ranking_markdown(scores: list[TrackerScores], names: dict) -> str:
     obj_ids, rows = ranking_rows(scores)
     best = {o: max((r["per_object"].get(o, -1) for r in rows), default=None) for o in obj_ids}
     head = ["method"] + [_short(names.get(o, o)) for o in obj_ids] + ["Avg.", "ADD", "PRJ", "SR 5cm5°"]
     lines = ["| " + " | ".join(head) + " |", "|:---|" + "---:|" * (len(head) - 1)]
     for r in rows:
-        cells = []
-        for o in obj_ids:
-            v = r["per_object"].get(o)
-            s = _f(v)
-            cells.append(f"**{s}**" if v is not None and len(rows) > 1 and v == best[o] else s)
+        cells = _object_cells(r, obj_ids, best, len(rows), lambda c: f"**{c}**")
         lines.append("| " + " | ".join([r["name"]] + cells + [_f(r["avg"]), f"{_f(r['add'])} [{r['add_rank']}]",
                                                             f"{_f(r['prj'])} [{r['prj_rank']}]", _f(r["sr"])]) + " |")
     lens = sorted({L for s in scores for L in s.per_length})
@@ -89,11 +98,7 @@ def ranking_latex(scores: list[TrackerScores], names: dict, caption: str = "") -
            " & ".join(["Method"] + [rf"\rotatebox{{60}}{{{_tex(_short(names.get(o, o)))}}}" for o in obj_ids]
                       + [r"Avg.$^\uparrow$", "ADD", "PRJ", r"SR"]) + r" \\", r"\midrule"]
     for r in rows:
-        cells = []
-        for o in obj_ids:
-            v = r["per_object"].get(o)
-            s = _f(v)
-            cells.append(rf"\textbf{{{s}}}" if v is not None and len(rows) > 1 and v == best[o] else s)
+        cells = _object_cells(r, obj_ids, best, len(rows), lambda c: rf"\textbf{{{c}}}")
         out.append(" & ".join([_tex(r["name"])] + cells + [_f(r["avg"]), f"{_f(r['add'])}$^{{[{r['add_rank']}]}}$",
                                                            f"{_f(r['prj'])}$^{{[{r['prj_rank']}]}}$", _f(r["sr"])])
                    + r" \\")
@@ -121,9 +126,7 @@ def plot_tracker_curves(scores: list[TrackerScores], gti: GtIndex, out_png: str 
                         n_thresholds: int = 201, title: str = "") -> Path:
     """Accuracy vs threshold, ADD(-S) on 0..100 mm and PRJ on 0..10 px, one curve per tracker (the
     mean over objects of the per-object curves: its normalised area is the tracker's AUC)."""
-    import matplotlib  # lazy: heavy, only for the PNG
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), constrained_layout=True)
     obj_ids = sorted(set(gti.obj_id.tolist()))
     cmap = plt.get_cmap("tab10")
@@ -135,19 +138,9 @@ def plot_tracker_curves(scores: list[TrackerScores], gti: GtIndex, out_png: str 
             mean = np.mean(curves, axis=0)
             a = s.overall["add_auc" if key == "add_s_mm" else "prj_auc"]
             ax.plot(thr, mean, lw=2, color=cmap(i % 10), label=f"{s.name} ({a:.1f})")
-        ax.set_xlim(0, bound)
-        ax.set_ylim(0, 100)
-        ax.set_xlabel(xl)
-        ax.set_ylabel("accuracy (%)")
-        ax.grid(alpha=0.3)
+        style_accuracy_axes(ax, bound, xl)
         ax.legend(fontsize=8, loc="lower right")
-    if title:
-        fig.suptitle(title)
-    out_png = Path(out_png)
-    with atomic_path(out_png) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
-    return out_png
+    return save_png(fig, out_png, 110, title)
 
 
 def errors_csv(s: TrackerScores, gti: GtIndex) -> str:

@@ -120,13 +120,7 @@ def run_benchmark(cfg: dict, make_tracker: Callable[[], object], out_dir: str | 
     layout, split = ds.get("layout", "bop"), ds.get("split", "")
     sha = config_sha256(cfg)
     runp = out / "run.json"
-    if runp.is_file():
-        prev = read_json(runp, "benchmark run info")
-        if prev.get("config_sha256") not in (None, sha):
-            raise YcbvssError("this folder holds results of another benchmark config; use a new --out", runp)
-        if tracker_name and prev.get("tracker") not in (None, tracker_name):
-            raise YcbvssError(f"this folder holds results of tracker {prev.get('tracker')!r}, not {tracker_name!r}",
-                              runp)
+    _check_previous_run(runp, sha, tracker_name)
     subs = cfg["subsequences"]
     if subsequence_ids is not None:
         keep = set(int(i) for i in subsequence_ids)
@@ -150,27 +144,46 @@ def run_benchmark(cfg: dict, make_tracker: Callable[[], object], out_dir: str | 
     t_all = time.perf_counter()
     try:
         for s in todo:
-            frames = [int(f) for f in s["frames"]]
-            objs = [int(o) for o in s["objects"]]
-            f0 = _track_frame(frames_of(int(s["scene_id"]), frames[0]), s, frames[0], modality == "rgbd")
-            tracker.init(f0, {o: init_pose(s, o) for o in objs})
-            bar.update(1)
-            rows = []
-            for im in frames[1:]:
-                fr = _track_frame(frames_of(int(s["scene_id"]), im), s, im, modality == "rgbd")
-                t0 = time.perf_counter()
-                poses = tracker.track(fr) or {}
-                dt = time.perf_counter() - t0
-                for o in objs:
-                    T = poses.get(o)
-                    if T is None:
-                        continue
-                    T = np.asarray(T, dtype=np.float64)
-                    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-                        continue
-                    rows.append((im, o, T, dt))
-                bar.update(1)
-            write_results(out, s["id"], rows)
+            write_results(out, s["id"], _track_subsequence(tracker, s, frames_of, modality == "rgbd", bar))
     finally:
         bar.close()
     return {"done": len(todo), "skipped": skipped, "seconds": time.perf_counter() - t_all, "frames": n_frames}
+
+
+def _check_previous_run(runp: Path, sha: str, tracker_name: str) -> None:
+    """A results folder belongs to one config (by sha256) and one tracker: refuse to mix."""
+    if not runp.is_file():
+        return
+    prev = read_json(runp, "benchmark run info")
+    if prev.get("config_sha256") not in (None, sha):
+        raise YcbvssError("this folder holds results of another benchmark config; use a new --out", runp)
+    if tracker_name and prev.get("tracker") not in (None, tracker_name):
+        raise YcbvssError(f"this folder holds results of tracker {prev.get('tracker')!r}, not {tracker_name!r}",
+                          runp)
+
+
+def _track_subsequence(tracker, s: dict, frames_of: Callable, with_depth: bool, bar) -> list[tuple]:
+    """Run ``tracker`` on subsequence ``s``: init on its first frame with the config's poses, then
+    track frame by frame. Returns rows (im_id, obj_id, T_m2c 4x4 mm, seconds of that track call)
+    for every finite 4x4 pose returned for a tracked object."""
+    frames = [int(f) for f in s["frames"]]
+    objs = [int(o) for o in s["objects"]]
+    f0 = _track_frame(frames_of(int(s["scene_id"]), frames[0]), s, frames[0], with_depth)
+    tracker.init(f0, {o: init_pose(s, o) for o in objs})
+    bar.update(1)
+    rows = []
+    for im in frames[1:]:
+        fr = _track_frame(frames_of(int(s["scene_id"]), im), s, im, with_depth)
+        t0 = time.perf_counter()
+        poses = tracker.track(fr) or {}
+        dt = time.perf_counter() - t0
+        for o in objs:
+            T = poses.get(o)
+            if T is None:
+                continue
+            T = np.asarray(T, dtype=np.float64)
+            if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+                continue
+            rows.append((im, o, T, dt))
+        bar.update(1)
+    return rows

@@ -15,10 +15,16 @@ import numpy as np
 from ...errors import YcbvssError
 from ...geometry.so3 import project_to_so3
 from ...io.atomic import read_json
-from ...io.bcot import (BCOT_TEST_SCENES, body_obj_ids, is_bcot_root, list_sequences, load_bcot_dataset,
-                        load_bcot_models, load_bcot_sequence)
-from ...io.bop import load_bop_scene, read_scene_camera, read_scene_gt, select_scene_ids
-from ...io.bop import load_models as load_bop_models
+from ...io.bcot import (
+    BCOT_TEST_SCENES,
+    body_obj_ids,
+    is_bcot_root,
+    list_sequences,
+    load_bcot_dataset,
+    load_bcot_models,
+    load_bcot_sequence,
+)
+from ...io.bop import load_bop_scene, load_models as load_bop_models, read_scene_camera, read_scene_gt, select_scene_ids
 from ...io.ycbv import list_frames, list_videos, load_ycbv_models, load_ycbv_scene, read_meta_frame
 from ...progress import progress
 

@@ -15,8 +15,11 @@ from typing import Iterator
 
 import numpy as np
 
-from .io import write_models, write_table
-from .scene import ProceduralScene
+from ..blender_scripts.outputs import read_exr_rgba
+from ..procedural.io import write_models, write_table
+from ..procedural.render import _renderer, render_frame_fast
+from ..procedural.scene import ProceduralScene
+from ..synth.blender import render_job
 
 
 def linear_to_srgb_u8(rgb_linear: np.ndarray) -> np.ndarray:
@@ -63,10 +66,6 @@ def render_blender(scene: ProceduralScene, models_dir: str | Path, work_dir: str
     ``work_dir`` the table mesh and Blender's EXR/PNG outputs. ``noise_sigma``: Gaussian sensor
     noise (8-bit units) added after encoding. ``on_frame()`` is called as Blender finishes each
     frame (all frames are path traced before the first one is yielded)."""
-    from ..blender_scripts.outputs import read_exr_rgba
-    from ..synth.blender import render_job
-    from .render import _renderer, render_frame_fast
-
     job = blender_job(scene, Path(models_dir), Path(work_dir), samples, denoise, with_table)
     results = render_job(job, workers=workers, on_done=(lambda _r: on_frame()) if on_frame else None)
     r = _renderer(scene, renderer)

@@ -2,6 +2,12 @@
 from __future__ import annotations
 
 import argparse
+import os
+import time
+from pathlib import Path
+
+from ..errors import YcbvssError
+from .options import add_split_option
 
 
 def register(sub) -> None:
@@ -11,7 +17,7 @@ def register(sub) -> None:
                                    "scene_camera.json (solved cam_R_w2c/cam_t_w2c), world poses, per-pose "
                                    "uncertainty and a convergence log.")
     p.add_argument("--dataset", required=True, help="BOP dataset root (with models/ and the split folder)")
-    p.add_argument("--split", default=None, help="split folder name, e.g. test (default: the dataset's only split)")
+    add_split_option(p)
     p.add_argument("--init", required=True,
                    help="initial poses: a BOP19 results CSV, or 'scene_gt' to start from each scene's scene_gt.json")
     p.add_argument("--out", required=True, help="output directory")
@@ -36,14 +42,11 @@ def register(sub) -> None:
 def _refine_job(job: dict) -> dict:
     """Refine one scene and write its outputs (runs in a worker process for --workers > 1). The scene's
     estimates file ``refine/<scene>_estimates.csv`` is written last: it marks the scene done (resume)."""
-    import time
-    from pathlib import Path
-
-    from ycbvss.io.bop import load_dataset
-    from ycbvss.io.results import write_bop19_csv
-
-    from .bundle import refine_scene
-    from .io import estimates_of, write_scene_outputs
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..io.bop import load_dataset
+    from ..io.results import write_bop19_csv
+    from ..refine.bundle import refine_scene
+    from ..refine.io import estimates_of, write_scene_outputs
 
     sid = job["scene_id"]
     ds = load_dataset(job["dataset"], job["split"], models_subdir=job["models_subdir"], scene_ids=[sid])
@@ -61,23 +64,17 @@ def _refine_job(job: dict) -> dict:
 
 
 def _part_path(out, sid: int):
-    from pathlib import Path
     return Path(out) / "refine" / f"{sid:06d}_estimates.csv"
 
 
 def _run(args: argparse.Namespace) -> int:
-    import os
-    from pathlib import Path
-
-    from ycbvss.errors import YcbvssError
-    from ycbvss.io.bop import load_dataset
-    from ycbvss.io.results import read_bop19_csv, write_bop19_csv
-    from ycbvss.io.ycbv import parse_videos
-    from ycbvss.parallel import run_jobs
-
-    from .bundle import RefineOptions
-
-    from ycbvss.io.bop_dataset import resolve_split
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..io.bop import load_dataset
+    from ..io.bop_dataset import resolve_split
+    from ..io.results import read_bop19_csv, write_bop19_csv
+    from ..io.ycbv import parse_videos
+    from ..parallel import run_jobs
+    from ..refine.bundle import RefineOptions
     args.split = resolve_split(args.dataset, args.split)
     scenes = None if args.scenes is None else parse_videos(",".join(args.scenes), "scene list")
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)

@@ -1,24 +1,10 @@
-"""Pose error measures used to report refinement accuracy (paper Table 4 style) and the random
-initial deviations used to test it."""
+"""Random initial deviations of exact poses, the starting points of refinement tests and benches
+(their errors are measured with :mod:`ycbvss.eval.metrics`)."""
 from __future__ import annotations
 
 import numpy as np
 
-from ycbvss.geometry.se3 import exp_se3
-from ycbvss.geometry.so3 import rotation_angle_deg
-
-
-def pose_errors(T_est: np.ndarray, T_gt: np.ndarray, pts_mm: np.ndarray, K: np.ndarray) -> dict:
-    """|tx|, |ty|, |tz| (mm, camera frame), R (deg), PRJ (mean reprojection px), ADD (mm)."""
-    dt = np.abs(T_est[:3, 3] - T_gt[:3, 3])
-    R = float(rotation_angle_deg(T_est[:3, :3].T @ T_gt[:3, :3]))
-    Ye = pts_mm @ T_est[:3, :3].T + T_est[:3, 3]
-    Yg = pts_mm @ T_gt[:3, :3].T + T_gt[:3, 3]
-    add = float(np.linalg.norm(Ye - Yg, axis=1).mean())
-    ue = Ye[:, :2] / Ye[:, 2:3] @ K[:2, :2].T + K[:2, 2]
-    ug = Yg[:, :2] / Yg[:, 2:3] @ K[:2, :2].T + K[:2, 2]
-    prj = float(np.linalg.norm(ue - ug, axis=1).mean())
-    return {"tx": float(dt[0]), "ty": float(dt[1]), "tz": float(dt[2]), "R": R, "PRJ": prj, "ADD": add}
+from ..geometry.se3 import exp_se3
 
 
 def deviate_scene(T_m2w: dict, T_w2c: dict, rng: np.random.Generator, t_sigma_mm=(3.0, 3.0, 20.0),

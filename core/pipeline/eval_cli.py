@@ -7,6 +7,10 @@ tables. Bad input (missing files, malformed CSV, unknown obj_id) -> one error li
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from ..errors import YcbvssError
+from .options import add_split_option
 
 
 def register(subparsers) -> None:
@@ -16,7 +20,7 @@ def register(subparsers) -> None:
                     "AUC of ADD(-S) (bound 100 mm) and PRJ (10 px), ADD-PRJ-AUC, SR at 5 cm / 5 deg; overall "
                     "= mean over objects. GT instances without an estimate count as failed.")
     p.add_argument("--dataset", required=True, help="BOP dataset root (contains models/ and the split folder)")
-    p.add_argument("--split", default=None, help="split folder name, e.g. test (default: the dataset's only split)")
+    add_split_option(p)
     p.add_argument("--results", required=True, help="BOP19 results CSV")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--symmetric", nargs="*", default=None, metavar="SET|OBJ_ID",
@@ -38,15 +42,12 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from ..errors import YcbvssError
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..eval.evaluate import EstArrays, EvalOptions, GtArrays, evaluate_arrays
+    from ..eval.outputs import summary_text, write_outputs
     from ..io.bop import load_models
-    from ..io.results import read_bop19_csv
-    from .evaluate import EstArrays, EvalOptions, GtArrays, evaluate_arrays
-    from .outputs import summary_text, write_outputs
-
     from ..io.bop_dataset import resolve_split
+    from ..io.results import read_bop19_csv
     from ..io.ycbv import parse_videos
     root = Path(args.dataset)
     if not root.is_dir():
@@ -54,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
     args.split = resolve_split(root, args.split)
     if args.scenes is not None:
         args.scenes = parse_videos(",".join(args.scenes), "scene list")
-    from .symmetric_sets import parse_symmetric
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..eval.symmetric_sets import parse_symmetric
     sym, sym_label = parse_symmetric(args.symmetric)
     options = EvalOptions(symmetric_obj_ids=sym, symmetric_set=sym_label, use_symmetries=args.use_symmetries,
                           adds_for=args.adds_for, add_bound_mm=args.add_bound_mm,

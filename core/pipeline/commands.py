@@ -7,6 +7,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..errors import YcbvssError
+
 
 def register(subparsers) -> None:
     # ---------------------------------------------------------------- convert
@@ -53,9 +55,9 @@ def register(subparsers) -> None:
 
 
 def run_convert_ycbv(args: argparse.Namespace) -> int:
-    from .convert import convert_ycbv
-    from .errors import YcbvssError
-    from .io.ycbv import parse_videos
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..convert import convert_ycbv
+    from ..io.ycbv import parse_videos
 
     objs = None
     if args.objects:
@@ -79,7 +81,8 @@ def run_convert_ycbv(args: argparse.Namespace) -> int:
 
 
 def run_assets_verify(args: argparse.Namespace) -> int:
-    from .manifest import load_manifest, verify_assets
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..manifest import load_manifest, verify_assets
 
     res = verify_assets(args.root, load_manifest(args.manifest))
     counts: dict[str, int] = {}

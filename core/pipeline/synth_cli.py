@@ -3,8 +3,11 @@ from __future__ import annotations
 
 import argparse
 
+from ..errors import YcbvssError
+
 
 def _scenes(text: str | None, what: str = "scene list"):
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.ycbv import parse_videos
     return parse_videos(text, what)
 
@@ -55,22 +58,23 @@ def register(sub) -> None:
 
 
 def _handler(args: argparse.Namespace) -> int:
-    from ..errors import YcbvssError
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from ..io.bop_dataset import resolve_split, split_names
-    from pathlib import Path
     if args.action == "preview" or split_names(args.dataset):
         args.split = resolve_split(args.dataset, args.split)
     elif args.split is None:
         args.split = "test"                      # YCB-Video root input: the output split name
     if args.action == "preview":
-        from .preview import write_preview
+        # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+        from ..synth.preview import write_preview
         out = write_preview(args.dataset, args.split, args.out, _scenes(args.scenes))
         print(f"preview written to {out}")
         return 0
     if not args.out:
         raise YcbvssError("--out is required")
-    from .noise import NoiseParams
-    from .run import SynthOptions, run_synth
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..synth.noise import NoiseParams
+    from ..synth.run import SynthOptions, run_synth
     opts = SynthOptions(seed=args.seed, samples=args.samples, denoise=args.denoise, max_bounces=args.max_bounces,
                         noise=NoiseParams(shot=args.shot_noise, read=args.read_noise, blur_sigma_px=args.blur),
                         colour_fit=not args.no_colour_fit, colour_fit_method=args.colour_fit_method,

@@ -28,13 +28,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import YcbvssError, where as fmt_where
-from .io.atomic import atomic_path, read_json, write_json_atomic, write_text_atomic
-from .io.bop import BopSceneWriter, load_dataset, read_scene_camera, read_scene_gt
-from .io.bop_dataset import write_camera_files, write_models_eval, write_targets
-from .io.results import Estimate, write_bop19_csv
-from .progress import progress
-from .scene import Instance
+from .. import __version__
+from ..errors import YcbvssError, where as fmt_where
+from ..gt_info import compute_gt_info
+from ..io.atomic import atomic_path, read_json, write_json_atomic, write_text_atomic
+from ..io.bop import BopSceneWriter, load_dataset, read_scene_camera, read_scene_gt
+from ..io.bop_dataset import write_camera_files, write_models_eval, write_targets
+from ..io.results import Estimate, write_bop19_csv
+from ..progress import progress
+from ..render import Renderer
+from ..scene import Instance
 
 
 def _place(src: Path, dst: Path, copy: bool) -> None:
@@ -85,7 +88,6 @@ def _refined_scene(refine_dir: Path, split: str, sid: int):
 
 
 def dataset_info_md(source: Path, split: str, refine_dir: Path, counts: dict, copy: bool) -> str:
-    from . import __version__
     src_info = source / "dataset_info.md"
     return (f"# Refined BOP dataset (ycbvss {__version__}, `ycbvss export`)\n\n"
             f"- source dataset: `{source.resolve()}`, split `{split}`\n"
@@ -104,65 +106,24 @@ def dataset_info_md(source: Path, split: str, refine_dir: Path, counts: dict, co
 
 def export_refined(dataset: str | Path, split: str, refined: str | Path, out: str | Path, copy: bool = False,
                    scenes=None, delta_mm: float = 15.0, show_progress: bool = True) -> dict:
-    """Write the refined BOP dataset (see module docstring); returns a summary dict."""
-    from .gt_info import compute_gt_info
+    """Write the refined BOP dataset (see module docstring); returns a summary dict (counts of
+    refined/kept poses and cameras, per-status counts, frames, seconds)."""
     t0 = time.perf_counter()
     src, refine_dir, out = Path(dataset), Path(refined), Path(out)
-    if not refine_dir.is_dir():
-        raise YcbvssError("refine output folder not found", refine_dir)
-    if out.resolve() == src.resolve():
-        raise YcbvssError("--out must differ from --dataset", out)
-    ds = load_dataset(src, split, scene_ids=scenes)
-    if not (refine_dir / split).is_dir():
-        raise YcbvssError(f"no split {split!r} in the refine output (refine was run with another --split?)",
-                          refine_dir / split)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise YcbvssError(f"output folder not writable: {e.strerror}", out) from None
+    ds = _open_export(src, split, refine_dir, out, scenes)
     _place_models(src / "models", out / "models", copy)
     if (src / "models_original").is_dir():
         _place_models(src / "models_original", out / "models_original", copy)
-    from .render import Renderer
     renderer = Renderer()
     counts = {"refined": 0, "kept": 0, "status": {}, "cams_refined": 0, "cams_kept": 0, "frames": 0}
     n_frames = sum(1 for _ in ds.scene_ids)
     bar = progress(total=n_frames, desc="export scenes", unit="scene")
     for scene in ds.iter_scenes():
-        sid = scene.scene_id
-        ref = _refined_scene(refine_dir, split, sid)
-        poses, cams, status = ref if ref is not None else ({}, {}, {})
-        writer = BopSceneWriter(out / split, sid)
+        ref = _refined_scene(refine_dir, split, scene.scene_id)
+        writer = BopSceneWriter(out / split, scene.scene_id)
         side = {}
         for f in scene.frames:
-            per_obj = {}
-            for i in f.instances:
-                per_obj[i.obj_id] = per_obj.get(i.obj_id, 0) + 1
-            insts, notes = [], []
-            for i in f.instances:
-                T = poses.get((f.im_id, i.obj_id)) if per_obj[i.obj_id] == 1 else None
-                if T is not None:
-                    insts.append(Instance(i.obj_id, np.asarray(T, np.float64), gt_id=i.gt_id))
-                    st = status.get((f.im_id, i.obj_id), {})
-                    notes.append({"refined": True, **st})
-                    counts["refined"] += 1
-                    s = st.get("status") or "unknown"
-                    counts["status"][s] = counts["status"].get(s, 0) + 1
-                else:
-                    insts.append(i)
-                    why = "scene not refined" if ref is None else (
-                        "several instances of this object in the image" if per_obj[i.obj_id] > 1 else
-                        "no refined pose")
-                    notes.append({"refined": False, "status": None, "confidence": None, "reason": why})
-                    counts["kept"] += 1
-            g = _copy.copy(f)
-            g.instances = insts
-            T_w2c = cams.get(f.im_id)
-            if T_w2c is not None:
-                g.T_w2c = T_w2c
-                counts["cams_refined"] += 1
-            else:
-                counts["cams_kept"] += 1
+            g, side[str(f.im_id)] = _refined_frame(f, ref, counts)
             depth = f.load_depth_mm() if f.depth_path is not None else None
             masks, masks_visib, infos = compute_gt_info(renderer, g, ds.models, depth, delta_mm)
             writer.write_frame(g, masks=masks, masks_visib=masks_visib, gt_info=infos)
@@ -170,7 +131,6 @@ def export_refined(dataset: str | Path, split: str, refined: str | Path, out: st
                 _place(f.rgb_path, writer.dir / Path(f.rgb_path).parent.name / Path(f.rgb_path).name, copy)
             if f.depth_path is not None:
                 _place(f.depth_path, writer.dir / "depth" / Path(f.depth_path).name, copy)
-            side[str(f.im_id)] = notes
             counts["frames"] += 1
         write_json_atomic(writer.dir / "scene_gt_refine.json", side)
         writer.close()
@@ -185,6 +145,58 @@ def export_refined(dataset: str | Path, split: str, refined: str | Path, out: st
     write_text_atomic(out / "dataset_info.md", dataset_info_md(src, split, refine_dir, counts, copy))
     return {"out": str(out), "split": split, "scenes": list(ds.scene_ids), **counts,
             "seconds": time.perf_counter() - t0}
+
+
+def _open_export(src: Path, split: str, refine_dir: Path, out: Path, scenes):
+    """Check the inputs and create ``out``; returns the source dataset (``scenes`` only)."""
+    if not refine_dir.is_dir():
+        raise YcbvssError("refine output folder not found", refine_dir)
+    if out.resolve() == src.resolve():
+        raise YcbvssError("--out must differ from --dataset", out)
+    ds = load_dataset(src, split, scene_ids=scenes)
+    if not (refine_dir / split).is_dir():
+        raise YcbvssError(f"no split {split!r} in the refine output (refine was run with another --split?)",
+                          refine_dir / split)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise YcbvssError(f"output folder not writable: {e.strerror}", out) from None
+    return ds
+
+
+def _refined_frame(f, ref: tuple | None, counts: dict) -> tuple:
+    """(copy of frame ``f`` with the refined poses and camera where ``ref`` = (poses, cameras, status)
+    of its scene has them, the scene_gt_refine.json notes of its instances); updates ``counts``.
+    An object seen several times in the image keeps its original poses."""
+    poses, cams, status = ref if ref is not None else ({}, {}, {})
+    per_obj = {}
+    for i in f.instances:
+        per_obj[i.obj_id] = per_obj.get(i.obj_id, 0) + 1
+    insts, notes = [], []
+    for i in f.instances:
+        T = poses.get((f.im_id, i.obj_id)) if per_obj[i.obj_id] == 1 else None
+        if T is not None:
+            insts.append(Instance(i.obj_id, np.asarray(T, np.float64), gt_id=i.gt_id))
+            st = status.get((f.im_id, i.obj_id), {})
+            notes.append({"refined": True, **st})
+            counts["refined"] += 1
+            s = st.get("status") or "unknown"
+            counts["status"][s] = counts["status"].get(s, 0) + 1
+        else:
+            insts.append(i)
+            why = "scene not refined" if ref is None else (
+                "several instances of this object in the image" if per_obj[i.obj_id] > 1 else "no refined pose")
+            notes.append({"refined": False, "status": None, "confidence": None, "reason": why})
+            counts["kept"] += 1
+    g = _copy.copy(f)
+    g.instances = insts
+    T_w2c = cams.get(f.im_id)
+    if T_w2c is not None:
+        g.T_w2c = T_w2c
+        counts["cams_refined"] += 1
+    else:
+        counts["cams_kept"] += 1
+    return g, notes
 
 
 def write_gt_csv(dataset: str | Path, split: str, out_csv: str | Path, scenes=None) -> int:

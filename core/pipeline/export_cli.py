@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 
+from .options import add_split_option
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -12,7 +14,7 @@ def register(sub) -> None:
                     "cam_R_w2c/cam_t_w2c, scene_gt_refine.json (per-pose status and confidence), rgb/depth/models "
                     "linked (or --copy), models_eval/, camera files, targets file and dataset_info.md.")
     p.add_argument("--dataset", required=True, help="source BOP dataset root (what refine was run on)")
-    p.add_argument("--split", default=None, help="split folder name, e.g. test (default: the dataset's only split)")
+    add_split_option(p)
     p.add_argument("--refined", required=True, help="`ycbvss refine --out` folder")
     p.add_argument("--out", required=True, help="new BOP dataset root")
     p.add_argument("--scenes", default=None, help="scene ids, e.g. 0,1 or 48-59 (default: all)")
@@ -23,20 +25,22 @@ def register(sub) -> None:
                        description="One row per GT instance (score 1, time -1): a perfect 'estimate' to test "
                                    "eval and to initialise refine.")
     g.add_argument("--dataset", required=True, help="BOP dataset root")
-    g.add_argument("--split", default=None, help="split folder name (default: the dataset's only split)")
+    add_split_option(g)
     g.add_argument("--out", required=True, help="CSV file to write")
     g.add_argument("--scenes", default=None, help="scene ids, e.g. 0,1 or 48-59 (default: all)")
     g.set_defaults(func=_run_gt)
 
 
 def _scenes(text):
-    from .io.ycbv import parse_videos
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..io.ycbv import parse_videos
     return parse_videos(text, "scene list")
 
 
 def _run_export(args: argparse.Namespace) -> int:
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..io.bop_dataset import resolve_split
     from .export import export_refined
-    from .io.bop_dataset import resolve_split
     args.split = resolve_split(args.dataset, args.split)
     r = export_refined(args.dataset, args.split, args.refined, args.out, copy=args.copy, scenes=_scenes(args.scenes))
     print(f"exported {len(r['scenes'])} scenes, {r['frames']} frames: {r['refined']} refined poses, {r['kept']} "
@@ -46,8 +50,9 @@ def _run_export(args: argparse.Namespace) -> int:
 
 
 def _run_gt(args: argparse.Namespace) -> int:
+    # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
+    from ..io.bop_dataset import resolve_split
     from .export import write_gt_csv
-    from .io.bop_dataset import resolve_split
     args.split = resolve_split(args.dataset, args.split)
     n = write_gt_csv(args.dataset, args.split, args.out, scenes=_scenes(args.scenes))
     print(f"wrote {n} GT poses of split {args.split} to {args.out}")

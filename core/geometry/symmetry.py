@@ -1,14 +1,15 @@
-"""Poses modulo object symmetries (BOP ``models_info`` ``symmetries_discrete`` / ``_continuous``).
+"""Object symmetries (BOP ``models_info`` ``symmetries_discrete`` / ``_continuous``) as rigid transforms.
 
-:func:`symmetry_transforms` lists the symmetry transforms ``S`` (4x4, mm, model frame) of an
-object, identity first: the discrete ones and, for continuous symmetries, rotations about the axis
-sampled so that no model point moves more than ``max_step_frac * diameter`` between two samples
-(``n = ceil(pi / max_step_frac)`` angles, 315 for the default 0.01, as bop_toolkit).
-A GT pose ``T_gt`` is then equivalent to every ``T_gt S``.
+A symmetry transform ``S`` (4x4, mm, model frame) leaves the object's appearance unchanged, so a
+pose ``T`` is equivalent to every ``T S``. Continuous symmetries (rotation about an axis through
+``offset``) are sampled at ``n_continuous`` angles ``2 pi k / n``.
 
-:func:`closest_symmetric_gt` picks, for every estimate, the equivalent GT pose that is closest in
-mean squared model-point distance; this is computed exactly from the first and second moments of
-the model points (no per-point work), so it is cheap even for hundreds of transforms.
+- :func:`symmetry_group`: the transforms of lists of discrete / continuous symmetries, identity first.
+- :func:`symmetry_transforms`: the same for an :class:`ycbvss.scene.ObjectModel`. The refiner's
+  initialisation uses 36 steps per axis; evaluation uses :func:`continuous_steps` so that no model point
+  moves more than ``max_step_frac * diameter`` between two samples (315 for 0.01, as bop_toolkit).
+- :func:`closest_symmetric_gt`: for every estimate, the equivalent GT pose that is closest in mean
+  squared model-point distance, exactly from the points' first and second moments (no per-point work).
 """
 from __future__ import annotations
 
@@ -16,15 +17,23 @@ import math
 
 import numpy as np
 
-from ..geometry.so3 import exp_so3
+from .so3 import exp_so3
+
+REFINE_CONTINUOUS_STEPS = 36    # samples per continuous axis for the refiner's symmetric initialisation
 
 
-def symmetry_transforms(discrete: list | None = None, continuous: list | None = None,
-                        diameter_mm: float | None = None, max_step_frac: float = 0.01) -> np.ndarray:
+def continuous_steps(max_step_frac: float) -> int:
+    """Samples per continuous axis so that a point at the diameter moves at most ``max_step_frac *
+    diameter`` between neighbours: ``ceil(pi / max_step_frac)``."""
+    return int(math.ceil(math.pi / max_step_frac))
+
+
+def symmetry_group(discrete: list | None, continuous: list | None, n_continuous: int) -> np.ndarray:
     """(S, 4, 4) symmetry transforms, identity first.
 
-    ``discrete``: 4x4 matrices or BOP 16-number lists (mm). ``continuous``: dicts ``{"axis": [3],
-    "offset": [3] mm}``. Combined as ``T_cont(angle) @ T_disc`` for every pair."""
+    ``discrete``: 4x4 matrices or BOP 16-number lists (mm); identity entries are skipped.
+    ``continuous``: dicts ``{"axis": [3], "offset": [3] mm}``. Combined as ``T_cont(angle) @ T_disc``
+    for every pair, continuous axes one after the other."""
     disc = [np.eye(4)]
     for S in discrete or []:
         S = np.asarray(S, dtype=np.float64).reshape(4, 4)
@@ -35,10 +44,9 @@ def symmetry_transforms(discrete: list | None = None, continuous: list | None = 
         axis = np.asarray(c["axis"], dtype=np.float64)
         axis = axis / np.linalg.norm(axis)
         offset = np.asarray(c.get("offset", [0.0, 0.0, 0.0]), dtype=np.float64)
-        n = int(math.ceil(math.pi / max_step_frac))
         new = []
-        for k in range(1, n):
-            R = exp_so3(axis * (2.0 * math.pi * k / n))
+        for k in range(1, n_continuous):
+            R = exp_so3(axis * (2.0 * math.pi * k / n_continuous))
             T = np.eye(4)
             T[:3, :3] = R
             T[:3, 3] = offset - R @ offset          # rotation about the axis through `offset`
@@ -47,10 +55,11 @@ def symmetry_transforms(discrete: list | None = None, continuous: list | None = 
     return np.stack([Tc @ Td for Tc in conts for Td in disc])
 
 
-def model_symmetry_transforms(model, max_step_frac: float = 0.01) -> np.ndarray:
-    """:func:`symmetry_transforms` of an :class:`ycbvss.scene.ObjectModel`."""
-    return symmetry_transforms(model.symmetries_discrete, model.symmetries_continuous,
-                               model.diameter_mm, max_step_frac)
+def symmetry_transforms(model, n_continuous: int = REFINE_CONTINUOUS_STEPS) -> np.ndarray:
+    """:func:`symmetry_group` of an ObjectModel's ``symmetries_discrete`` / ``symmetries_continuous``
+    (missing attributes count as none)."""
+    return symmetry_group(getattr(model, "symmetries_discrete", None), getattr(model, "symmetries_continuous", None),
+                          n_continuous)
 
 
 def point_moments(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
