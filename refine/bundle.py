@@ -173,92 +173,115 @@ class _Stage:
         return vr
 
     def build_terms(self, fields: dict, renders: dict, recompute_matches: bool = True) -> list:
-        pb, opt = self.pb, self.opt
+        """The cost terms of one outer iteration from this iteration's template ``renders`` (view
+        index -> ViewRender) and the level's edge ``fields`` (view index -> EdgeField): f_edge,
+        alpha f_point (flow matches re-computed every ``match_every`` outer iterations, reused in
+        between) and beta f_t, each where enabled. A (view, object) pair takes part when at least
+        ``min_visible_px`` of its template is visible (recorded in ``self.visible``)."""
+        opt = self.opt
         terms = []
         vis = {(i, j) for i, vr in renders.items() for j in vr.obj_index
                if int(vr.mask(j).sum()) >= opt.min_visible_px}
         self.visible |= vis
         if opt.use_edge:
-            t0 = time.perf_counter()
-            groups = []
-            # the image work per view runs on a thread pool; the samples are drawn in view order
-            jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
-                                                fold_min_angle_deg=self.fold_angle))
-                    for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
-            for i, vr, job in jobs:
-                for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, self.rng).items():
-                    if (i, j) in vis and len(X):
-                        groups.append(EdgeGroup(i, j, X))
-            sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
-            terms.append(EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
-                                  curv_floor=opt.edge_curv_floor / sig))
-            self._t("edge_sampling_s", time.perf_counter() - t0)
+            terms.append(self._edge_term(fields, renders, vis))
         if opt.use_point and opt.alpha > 0 and not recompute_matches and self._point_term is not None:
             terms.append(self._point_term)
         elif opt.use_point and opt.alpha > 0:
-            t0 = time.perf_counter()
-            groups = []
-            jobs = []        # the views' flow matching runs on a thread pool (OpenCV releases the GIL)
-            for i, vr in renders.items():
-                objs = [j for j in vr.obj_index if (i, j) in vis]
-                if not objs:
-                    continue
-                y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
-                raw = composite(vr, pb.views[i].image, (y0, y1, x0, x1))
-                masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
-                img_c = pb.views[i].image[y0:y1, x0:x1]
-                jobs.append((i, vr, objs, (x0, y0), _view_pool().submit(
-                    _view_matches, raw, img_c, masks, opt.flow, self.me_image(i)[y0:y1, x0:x1])))
-            for i, vr, objs, (x0, y0), job in jobs:
-                matches = [(a + (x0, y0), b + (x0, y0)) for a, b in job.result()]
-                for j, (xs, xd) in zip(objs, matches):
-                    if len(xs) == 0:
-                        continue
-                    xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
-                    d = vr.depth_mm[xs[:, 1].round().astype(int), xs[:, 0].round().astype(int)].astype(float)
-                    ok = (d > 0) & (vr.instance[xs[:, 1].round().astype(int), xs[:, 0].round().astype(int)]
-                                    == vr.label_of(j))
-                    if not ok.any():
-                        continue
-                    Y = backproject_px(pb.views[i].K, xs[ok], d[ok])
-                    Pinv = inv_T(pb.pose(i, j))
-                    groups.append(PointGroup(i, j, Y @ Pinv[:3, :3].T + Pinv[:3, 3], xd[ok]))
-            self._point_term = PointTerm(groups, weight=opt.alpha, rho=opt.rho)
-            terms.append(self._point_term)
-            self._t("point_matching_s", time.perf_counter() - t0)
+            terms.append(self._new_point_term(renders, vis))
         if opt.use_temporal and opt.beta > 0 and self.pairs:
-            t0 = time.perf_counter()
-            groups = []
-            for (k, i) in self.pairs:          # points of view k matched into view i
-                if k not in renders:
-                    renders[k] = self.render(k)
-                vr = renders[k]
-                key = (min(k, i), max(k, i))
-                if key not in self._flows:        # one forward/backward flow pair serves both directions
-                    both = (vr.instance > 0) | ((renders[i].instance > 0) if i in renders else False)
-                    y0, y1, x0, x1 = _bbox(both, 2 * opt.flow_margin_px)
-                    a = normalize_for_flow(pb.views[key[0]].image[y0:y1, x0:x1])
-                    b = normalize_for_flow(pb.views[key[1]].image[y0:y1, x0:x1])
-                    self._flows[key] = (dense_flow_pair(a, b, opt.flow), (y0, y1, x0, x1))
-                (fab, fba), (y0, y1, x0, x1) = self._flows[key]
-                flows = (fab, fba) if k == key[0] else (fba, fab)
-                m = np.zeros(vr.instance.shape, bool)
-                for j in vr.obj_index:
-                    m |= object_mask(vr, j, opt.match_erode_px)
-                (xs, xd), = flow_matches(None, None, [m[y0:y1, x0:x1]], opt.flow, flows=flows,
-                                         corner_image=pb.views[k].image[y0:y1, x0:x1],
-                                         corner_me=self.me_image(k)[y0:y1, x0:x1], dst_me=self.me_image(i)[y0:y1, x0:x1])
-                xs, xd = xs + (x0, y0), xd + (x0, y0)
+            terms.append(self._temporal_term(renders))
+        return terms
+
+    def _edge_term(self, fields: dict, renders: dict, vis: set) -> EdgeTerm:
+        """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
+        (view, object), drawn in view order from candidates computed on the thread pool."""
+        pb, opt = self.pb, self.opt
+        t0 = time.perf_counter()
+        groups = []
+        jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
+                                            fold_min_angle_deg=self.fold_angle))
+                for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
+        for i, vr, job in jobs:
+            for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, self.rng).items():
+                if (i, j) in vis and len(X):
+                    groups.append(EdgeGroup(i, j, X))
+        sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
+        term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
+                        curv_floor=opt.edge_curv_floor / sig)
+        self._t("edge_sampling_s", time.perf_counter() - t0)
+        return term
+
+    def _new_point_term(self, renders: dict, vis: set) -> PointTerm:
+        """alpha f_point: dense-flow matches template -> image per view (on the thread pool), lifted
+        to model points (mm) through the template depth; kept for reuse in ``self._point_term``."""
+        pb, opt = self.pb, self.opt
+        t0 = time.perf_counter()
+        groups = []
+        jobs = []        # the views' flow matching runs on a thread pool (OpenCV releases the GIL)
+        for i, vr in renders.items():
+            objs = [j for j in vr.obj_index if (i, j) in vis]
+            if not objs:
+                continue
+            y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
+            raw = composite(vr, pb.views[i].image, (y0, y1, x0, x1))
+            masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
+            img_c = pb.views[i].image[y0:y1, x0:x1]
+            jobs.append((i, vr, objs, (x0, y0), _view_pool().submit(
+                _view_matches, raw, img_c, masks, opt.flow, self.me_image(i)[y0:y1, x0:x1])))
+        for i, vr, objs, (x0, y0), job in jobs:
+            matches = [(a + (x0, y0), b + (x0, y0)) for a, b in job.result()]
+            for j, (xs, xd) in zip(objs, matches):
                 if len(xs) == 0:
                     continue
                 xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
                 d = vr.depth_mm[xs[:, 1].round().astype(int), xs[:, 0].round().astype(int)].astype(float)
-                ok = d > 0
-                if ok.any():
-                    groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
-            terms.append(TemporalTerm(groups, weight=opt.beta, rho=opt.rho))
-            self._t("temporal_matching_s", time.perf_counter() - t0)
-        return terms
+                ok = (d > 0) & (vr.instance[xs[:, 1].round().astype(int), xs[:, 0].round().astype(int)]
+                                == vr.label_of(j))
+                if not ok.any():
+                    continue
+                Y = backproject_px(pb.views[i].K, xs[ok], d[ok])
+                Pinv = inv_T(pb.pose(i, j))
+                groups.append(PointGroup(i, j, Y @ Pinv[:3, :3].T + Pinv[:3, 3], xd[ok]))
+        self._point_term = PointTerm(groups, weight=opt.alpha, rho=opt.rho)
+        self._t("point_matching_s", time.perf_counter() - t0)
+        return self._point_term
+
+    def _temporal_term(self, renders: dict) -> TemporalTerm:
+        """beta f_t: for each temporal pair (k, i), camera-k points (mm, through the template depth)
+        matched into view i by one cached forward/backward dense flow pair; cameras only."""
+        pb, opt = self.pb, self.opt
+        t0 = time.perf_counter()
+        groups = []
+        for (k, i) in self.pairs:          # points of view k matched into view i
+            if k not in renders:
+                renders[k] = self.render(k)
+            vr = renders[k]
+            key = (min(k, i), max(k, i))
+            if key not in self._flows:        # one forward/backward flow pair serves both directions
+                both = (vr.instance > 0) | ((renders[i].instance > 0) if i in renders else False)
+                y0, y1, x0, x1 = _bbox(both, 2 * opt.flow_margin_px)
+                a = normalize_for_flow(pb.views[key[0]].image[y0:y1, x0:x1])
+                b = normalize_for_flow(pb.views[key[1]].image[y0:y1, x0:x1])
+                self._flows[key] = (dense_flow_pair(a, b, opt.flow), (y0, y1, x0, x1))
+            (fab, fba), (y0, y1, x0, x1) = self._flows[key]
+            flows = (fab, fba) if k == key[0] else (fba, fab)
+            m = np.zeros(vr.instance.shape, bool)
+            for j in vr.obj_index:
+                m |= object_mask(vr, j, opt.match_erode_px)
+            (xs, xd), = flow_matches(None, None, [m[y0:y1, x0:x1]], opt.flow, flows=flows,
+                                     corner_image=pb.views[k].image[y0:y1, x0:x1],
+                                     corner_me=self.me_image(k)[y0:y1, x0:x1], dst_me=self.me_image(i)[y0:y1, x0:x1])
+            xs, xd = xs + (x0, y0), xd + (x0, y0)
+            if len(xs) == 0:
+                continue
+            xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
+            d = vr.depth_mm[xs[:, 1].round().astype(int), xs[:, 0].round().astype(int)].astype(float)
+            ok = d > 0
+            if ok.any():
+                groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
+        self._t("temporal_matching_s", time.perf_counter() - t0)
+        return TemporalTerm(groups, weight=opt.beta, rho=opt.rho)
 
     def _object_edge_costs(self, fields: dict) -> np.ndarray:
         """Mean edge cost E (0 on an image edge, 1 far from any) of each object's template edge
@@ -538,25 +561,18 @@ def _pairs(idx: list[int], nb: int) -> list[tuple[int, int]]:
     return out
 
 
-def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None = None,
-                 images: dict | None = None) -> RefineResult:
-    """Bundle pose refinement of one static scene.
+class _SceneImages:
+    """The scene's images, loaded when a stage needs them and dropped after it (bounded memory for
+    long videos): ``views[i].image`` is set for the view indices given to :meth:`keep`, None for the
+    others. ``images``: im_id -> HxWx3 uint8 (default: ``frame.load_rgb()``)."""
 
-    ``scene``: :class:`ycbvss.scene.Scene` (frames with cameras); ``models``: obj_id -> ObjectModel;
-    ``init``: {(im_id, obj_id): 4x4 mm object-to-camera}, may miss pairs; invalid ones (NaN, not a
-    rotation, behind the camera) are dropped with a warning. ``images``: im_id -> HxWx3 uint8
-    (default: ``frame.load_rgb()``)."""
-    opt = options or RefineOptions()
-    t_start = time.perf_counter()
-    frames = sorted(scene.frames, key=lambda f: f.im_id)
-    if not frames:
-        raise YcbvssError("scene has no frames", where=f"scene {scene.scene_id}")
-    # images are loaded when a stage needs them and dropped after it (bounded memory for long videos)
-    views = [View(f.im_id, f.camera.K.copy(), f.camera.width, f.camera.height, None) for f in frames]
+    def __init__(self, frames: list, views: list, images: dict | None):
+        self.frames, self.views, self.images = frames, views, images
 
-    def load_image(i: int) -> np.ndarray:
-        f = frames[i]
-        img = images.get(f.im_id) if images is not None else None
+    def load(self, i: int) -> np.ndarray:
+        """Image of view index i as contiguous (H, W, 3) uint8; grey is repeated to 3 channels."""
+        f = self.frames[i]
+        img = self.images.get(f.im_id) if self.images is not None else None
         if img is None:
             img = f.load_rgb()
         img = np.asarray(img)
@@ -567,15 +583,30 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                               f.rgb_path, f.where)
         return np.ascontiguousarray(img[..., :3].astype(np.uint8))
 
-    def with_images(idx) -> None:
+    def keep(self, idx) -> None:
+        """Hold exactly the images of the view indices ``idx`` in memory."""
         keep = set(int(i) for i in idx)
-        for i, v in enumerate(views):
+        for i, v in enumerate(self.views):
             if i in keep and v.image is None:
-                v.image = load_image(i)
+                v.image = self.load(i)
             elif i not in keep:
                 v.image = None
 
-    vidx = {v.im_id: i for i, v in enumerate(views)}
+
+def _scene_views(scene, images: dict | None) -> tuple[list, list, _SceneImages, dict]:
+    """The scene's frames sorted by im_id, one :class:`View` each (no image loaded yet), their
+    image loader and im_id -> view index."""
+    frames = sorted(scene.frames, key=lambda f: f.im_id)
+    if not frames:
+        raise YcbvssError("scene has no frames", where=f"scene {scene.scene_id}")
+    views = [View(f.im_id, f.camera.K.copy(), f.camera.width, f.camera.height, None) for f in frames]
+    return frames, views, _SceneImages(frames, views, images), {v.im_id: i for i, v in enumerate(views)}
+
+
+def _observations(scene, models: dict, init: dict, vidx: dict, frames: list) -> tuple[dict, list, list]:
+    """The valid initial poses as {(view index, object index): 4x4 mm}, the refined obj_ids (with
+    a model and at least one valid init pose; object index = position in this list) and the
+    scene's objects left out (warned)."""
     scene_objs = sorted({i.obj_id for f in frames for i in f.instances} | {o for (_, o) in init})
     obs_raw = {}
     for (im_id, oid), T in init.items():
@@ -593,99 +624,73 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if missing:
         warnings.warn(f"scene {scene.scene_id}: objects {missing} have no valid init pose and are not refined")
     jidx = {o: j for j, o in enumerate(obj_ids)}
-    obs = {(i, jidx[o]): T for (i, o), T in obs_raw.items() if o in jidx}
-    log: list = []
-    stats: dict = {"n_views": len(views), "n_objects": len(obj_ids)}
-    rng = np.random.default_rng(opt.seed)
-    Xs = [sample_model_points(models[o].vertices_mm if models[o].path is not None else models[o].mesh.vertices,
-                              opt.n_init_points, rng) for o in obj_ids]
-    syms = [symmetry_transforms(models[o]) for o in obj_ids]
-    t0 = time.perf_counter()
-    pb0, known = initialise(views, len(obj_ids), obs, Xs, syms, log=log)
-    stats["init_s"] = time.perf_counter() - t0
-    pb0.obj_ids = obj_ids
-    pb0.obj_known = known
-    init_poses = {(views[i].im_id, obj_ids[j]): pb0.pose(i, j) for i in range(len(views)) for j in range(len(obj_ids))}
-    T_c_init = pb0.T_c.copy()
+    return {(i, jidx[o]): T for (i, o), T in obs_raw.items() if o in jidx}, obj_ids, missing
 
-    n = len(views)
-    kf = _keyframes(n, opt.keyframe_step)
-    if opt.fix_cameras:
-        if any(f.T_w2c is None for f in frames):
-            raise YcbvssError("fix_cameras needs T_w2c for every frame", where=f"scene {scene.scene_id}")
-        T0inv = inv_T(np.asarray(frames[0].T_w2c, dtype=np.float64))
-        Tc_known = np.stack([np.asarray(f.T_w2c, dtype=np.float64) @ T0inv for f in frames])
-        # objects: average the init over views in the known camera frames (first view's camera = world)
-        for j, o in enumerate(obj_ids):
-            cands = [inv_T(Tc_known[i]) @ T for (i, jj), T in obs.items() if jj == j]
-            if cands:
-                pb0.T_m[j] = cands[0]
-        pb0.T_c = Tc_known
-    cam_free_kf = np.zeros(len(kf), bool) if opt.fix_cameras else None
-    with_images(kf)
-    pb = BundleProblem([views[i] for i in kf], obj_ids, pb0.T_c[kf], pb0.T_m, cam_free=cam_free_kf, obj_free=known)
-    pb.obj_known = known
-    stage = _Stage(pb, models, opt, log, stats, list(range(len(kf))),
-                   _pairs(list(range(len(kf))), opt.temporal_neighbours) if len(kf) > 1 else [], "keyframes")
-    # one image, or views from (nearly) one viewpoint: depth is seen only through the apparent size,
-    # and the coarsest blur (which merges neighbouring edges and so shifts the apparent size) pulls it
-    # away with no other viewpoint to pull it back -- start one level finer. Measured on the suite's
-    # 7-degree clips: from the exact GT the 8 px level pulled a foam brick on a sugar box 50 mm off
-    # (edges of its neighbours merged into its own); from 4 px it stayed within 5 mm.
-    stats["baseline_deg"] = round(viewing_baseline_deg(pb.T_c, pb.T_m[known]), 3)
-    narrow = len(kf) == 1 or stats["baseline_deg"] < opt.min_baseline_deg
-    base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
-    terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
-    converged = stage.converged
-    visible = {(views[kf[i]].im_id, obj_ids[j]) for (i, j) in stage.visible}
-    cov_kf = covariance(pb, terms_kf) if (opt.compute_uncertainty and terms_kf) else None
-    T_c = pb0.T_c.copy()
-    T_c[kf] = pb.T_c
-    T_m = pb.T_m.copy()
+
+def _use_known_cameras(pb0: BundleProblem, frames: list, obs: dict, n_objs: int, scene_id: int) -> None:
+    """``fix_cameras``: set pb0's cameras to the frames' T_w2c (world = first frame's camera) and
+    each object's world pose from its first observation in those cameras (in place)."""
+    if any(f.T_w2c is None for f in frames):
+        raise YcbvssError("fix_cameras needs T_w2c for every frame", where=f"scene {scene_id}")
+    T0inv = inv_T(np.asarray(frames[0].T_w2c, dtype=np.float64))
+    Tc_known = np.stack([np.asarray(f.T_w2c, dtype=np.float64) @ T0inv for f in frames])
+    for j in range(n_objs):
+        cands = [inv_T(Tc_known[i]) @ T for (i, jj), T in obs.items() if jj == j]
+        if cands:
+            pb0.T_m[j] = cands[0]
+    pb0.T_c = Tc_known
+
+
+def _keyframe_covariances(pb: BundleProblem, cov_kf: np.ndarray | None, kf: list[int], n_objs: int
+                          ) -> tuple[dict, dict, dict]:
+    """Split the keyframe bundle's covariance (6B x 6B) into camera (view index -> 6x6), object
+    (object index -> 6x6) and camera-object cross blocks ((view, object) -> 6x6)."""
     cam_cov: dict[int, np.ndarray] = {}
     obj_cov: dict[int, np.ndarray] = {}
     cross: dict[tuple[int, int], np.ndarray] = {}
-    if cov_kf is not None:
-        for a, i in enumerate(kf):
-            b = pb.cam_block[a]
-            if b >= 0:
-                cam_cov[i] = cov_kf[6 * b:6 * b + 6, 6 * b:6 * b + 6]
-        for j in range(len(obj_ids)):
-            b = pb.obj_block[j]
-            if b >= 0:
-                obj_cov[j] = cov_kf[6 * b:6 * b + 6, 6 * b:6 * b + 6]
-                for a, i in enumerate(kf):
-                    c = pb.cam_block[a]
-                    if c >= 0:
-                        cross[(i, j)] = cov_kf[6 * c:6 * c + 6, 6 * b:6 * b + 6]
+    if cov_kf is None:
+        return cam_cov, obj_cov, cross
+    for a, i in enumerate(kf):
+        b = pb.cam_block[a]
+        if b >= 0:
+            cam_cov[i] = cov_kf[6 * b:6 * b + 6, 6 * b:6 * b + 6]
+    for j in range(n_objs):
+        b = pb.obj_block[j]
+        if b >= 0:
+            obj_cov[j] = cov_kf[6 * b:6 * b + 6, 6 * b:6 * b + 6]
+            for a, i in enumerate(kf):
+                c = pb.cam_block[a]
+                if c >= 0:
+                    cross[(i, j)] = cov_kf[6 * c:6 * c + 6, 6 * b:6 * b + 6]
+    return cam_cov, obj_cov, cross
 
-    nonkey = [i for i in range(n) if i not in set(kf)]
-    seen_views = {i for (i, _) in obs}
-    if nonkey and not opt.fix_cameras:
-        for i in nonkey:   # SE(3) interpolation of the keyframe corrections
-            a = max(k for k in kf if k < i)
-            b = min(k for k in kf if k > i)
-            if i in seen_views:   # carry the keyframe corrections over to the frame's own init camera
-                pa = T_c_init[i] @ inv_T(T_c_init[a]) @ T_c[a]
-                pb_ = T_c_init[i] @ inv_T(T_c_init[b]) @ T_c[b]
-                T_c[i] = interpolate_T(pa, pb_, (i - a) / (b - a))
-            else:                 # no init pose in this frame: interpolate the keyframe cameras
-                T_c[i] = interpolate_T(T_c[a], T_c[b], (i - a) / (b - a))
-        nk_res = _refine_nonkey(views, models, obj_ids, known, T_c, T_m, nonkey, opt, log, stats, with_images)
-        T_c = nk_res["T_c"]
-        converged = converged and nk_res["converged"]
-        visible |= {(views[i].im_id, obj_ids[j]) for (i, j) in nk_res["visible"]}
-        cam_cov.update(nk_res["cam_cov"])
 
-    cam_move_mm, cam_move_deg = np.zeros(n), np.zeros(n)
-    cam_move_mm[kf], cam_move_deg[kf] = stage.cam_move
-    if nonkey and not opt.fix_cameras:
-        cam_move_mm[nonkey], cam_move_deg[nonkey] = nk_res["cam_move_mm"][nonkey], nk_res["cam_move_deg"][nonkey]
-    obj_move = stage.obj_move
+def _interpolate_nonkey_cameras(T_c: np.ndarray, T_c_init: np.ndarray, kf: list[int], nonkey: list[int],
+                                seen_views: set) -> None:
+    """Initial cameras (4x4 mm, in place in T_c) of the non-keyframes between refined keyframes:
+    the keyframe corrections carried over to the frame's own init camera when the frame had init
+    poses, else the keyframe cameras; SE(3)-interpolated by frame index."""
+    for i in nonkey:
+        a = max(k for k in kf if k < i)
+        b = min(k for k in kf if k > i)
+        if i in seen_views:
+            pa = T_c_init[i] @ inv_T(T_c_init[a]) @ T_c[a]
+            pb_ = T_c_init[i] @ inv_T(T_c_init[b]) @ T_c[b]
+            T_c[i] = interpolate_T(pa, pb_, (i - a) / (b - a))
+        else:
+            T_c[i] = interpolate_T(T_c[a], T_c[b], (i - a) / (b - a))
+
+
+def _final_poses(views: list, obj_ids: list, known: np.ndarray, T_c: np.ndarray, T_m: np.ndarray,
+                 init_poses: dict, num_fail: bool, scene_id: int) -> tuple[dict, set, np.ndarray, np.ndarray]:
+    """Object-to-camera poses {(im_id, obj_id): 4x4 mm} of every known object in every view, the
+    failed keys (a non-finite camera, object or pose: the initial pose is written and flagged; or
+    every pose when a linear system stayed singular), and the bad camera / object masks. Warns once
+    per failed object, naming scene, frames and object."""
+    n = len(views)
     bad_cam = ~np.all(np.isfinite(T_c.reshape(n, 16)), axis=1)
     bad_obj = ~np.all(np.isfinite(T_m.reshape(len(obj_ids), 16)), axis=1)
     poses, failed = {}, set()
-    num_fail = stage.numerical_failure or (bool(nonkey) and not opt.fix_cameras and nk_res["numerical_failure"])
     for i in range(n):
         for j in range(len(obj_ids)):
             if not known[j]:
@@ -702,36 +707,151 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         ims = sorted(im for (im, o) in failed if o == oid)
         what = ("a linear system that stayed singular" if num_fail else
                 "a non-finite pose (the initial pose is written instead)")
-        warnings.warn(f"scene {scene.scene_id} frame{'s' if len(ims) > 1 else ''} {_id_list(ims)} object {oid}: "
+        warnings.warn(f"scene {scene_id} frame{'s' if len(ims) > 1 else ''} {_id_list(ims)} object {oid}: "
                       f"refinement failed ({what}); status 'failed', score <= 0.1")
-    if failed:
-        converged = False
-    sigma = calibrate_sigmas(pose_sigmas(np.where(bad_cam[:, None, None], T_c_init, T_c),
-                                         np.where(bad_obj[:, None, None], pb0.T_m, T_m), cam_cov, obj_cov, cross,
-                                         [v.im_id for v in views], obj_ids, known & ~bad_obj), narrow)
-    stats["sigma_scale"] = list(sigma_scale(narrow))
-    t0 = time.perf_counter()
-    q_idx = np.unique(np.round(np.linspace(0, n - 1, min(8, n))).astype(int))
-    with_images(q_idx)
-    quality = _object_quality([views[i] for i in q_idx], models, obj_ids, known & ~bad_obj, poses, opt)
-    with_images([])
-    stats["confidence_s"] = time.perf_counter() - t0
+    return poses, failed, bad_cam, bad_obj
+
+
+def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, quality: dict, obj_move: tuple,
+              cam_move: tuple, visible: set, failed: set) -> tuple[dict, dict, dict]:
+    """Status, confidence and reasons per pose (:func:`ycbvss.refine.confidence.classify`) from the
+    calibrated sigmas, the contour quality and the last outer iteration's moves (mm, deg) of the
+    pose's object and camera; records each object's own last move in ``quality``."""
     status, confidence, reasons = {}, {}, {}
     for (im, oid), P in poses.items():
         i, j = vidx[im], obj_ids.index(oid)
         sp = sigma["poses"].get((im, oid))
         sig = (sigma_add_mm(sp["sigma_t_mm"], sp["sigma_r_deg"], quality[oid]["radius_mm"]) if sp else None)
-        moved = (float(obj_move[0][j]) + float(cam_move_mm[i])
-                 + np.radians(float(obj_move[1][j]) + float(cam_move_deg[i])) * quality[oid]["radius_mm"])
+        moved = (float(obj_move[0][j]) + float(cam_move[0][i])
+                 + np.radians(float(obj_move[1][j]) + float(cam_move[1][i])) * quality[oid]["radius_mm"])
         ps = classify(quality[oid]["contour_px"], sig, moved, observed=any(k[1] == oid for k in visible),
                       numerical_failure=(im, oid) in failed, width_px=views[i].width)
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
+    return status, confidence, reasons
+
+
+def _initialise_scene(views: list, models: dict, obj_ids: list, obs: dict, opt: RefineOptions, log: list,
+                      stats: dict) -> tuple[BundleProblem, np.ndarray]:
+    """Scene-consistent initial cameras and objects (:func:`ycbvss.refine.init.initialise`) from
+    the observations {(view index, object index): 4x4 mm}; returns the problem and obj_known (m,)."""
+    rng = np.random.default_rng(opt.seed)
+    Xs = [sample_model_points(models[o].vertices_mm if models[o].path is not None else models[o].mesh.vertices,
+                              opt.n_init_points, rng) for o in obj_ids]
+    syms = [symmetry_transforms(models[o]) for o in obj_ids]
+    t0 = time.perf_counter()
+    pb0, known = initialise(views, len(obj_ids), obs, Xs, syms, log=log)
+    stats["init_s"] = time.perf_counter() - t0
+    pb0.obj_ids = obj_ids
+    pb0.obj_known = known
+    return pb0, known
+
+
+def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, opt: RefineOptions,
+                      imgs: _SceneImages, n_views: int = 8) -> dict:
+    """:func:`_object_quality` on up to ``n_views`` evenly spaced views (only their images loaded)."""
+    n = len(views)
+    q_idx = np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))
+    imgs.keep(q_idx)
+    quality = _object_quality([views[i] for i in q_idx], models, obj_ids, ok, poses, opt)
+    imgs.keep([])
+    return quality
+
+
+@dataclass
+class _KeyframeSolution:
+    """The keyframe bundle's result: cameras T_c (n, 4, 4) with the keyframes solved (others as
+    initialised), objects T_m (m, 4, 4), covariance blocks, the stage (moves, failure flags)."""
+
+    T_c: np.ndarray
+    T_m: np.ndarray
+    stage: "_Stage"
+    narrow: bool
+    visible: set
+    cam_cov: dict
+    obj_cov: dict
+    cross: dict
+
+
+def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarray, pb0: BundleProblem,
+                      kf: list[int], opt: RefineOptions, log: list, stats: dict, imgs: _SceneImages
+                      ) -> _KeyframeSolution:
+    """Joint refinement of all keyframe cameras and all objects, coarse to fine."""
+    cam_free_kf = np.zeros(len(kf), bool) if opt.fix_cameras else None
+    imgs.keep(kf)
+    pb = BundleProblem([views[i] for i in kf], obj_ids, pb0.T_c[kf], pb0.T_m, cam_free=cam_free_kf, obj_free=known)
+    pb.obj_known = known
+    stage = _Stage(pb, models, opt, log, stats, list(range(len(kf))),
+                   _pairs(list(range(len(kf))), opt.temporal_neighbours) if len(kf) > 1 else [], "keyframes")
+    # one image, or views from (nearly) one viewpoint: depth is seen only through the apparent size,
+    # and the coarsest blur (which merges neighbouring edges and so shifts the apparent size) pulls it
+    # away with no other viewpoint to pull it back -- start one level finer. Measured on the suite's
+    # 7-degree clips: from the exact GT the 8 px level pulled a foam brick on a sugar box 50 mm off
+    # (edges of its neighbours merged into its own); from 4 px it stayed within 5 mm.
+    stats["baseline_deg"] = round(viewing_baseline_deg(pb.T_c, pb.T_m[known]), 3)
+    narrow = len(kf) == 1 or stats["baseline_deg"] < opt.min_baseline_deg
+    base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
+    terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
+    visible = {(views[kf[i]].im_id, obj_ids[j]) for (i, j) in stage.visible}
+    cov_kf = covariance(pb, terms_kf) if (opt.compute_uncertainty and terms_kf) else None
+    T_c = pb0.T_c.copy()
+    T_c[kf] = pb.T_c
+    return _KeyframeSolution(T_c, pb.T_m.copy(), stage, narrow, visible,
+                             *_keyframe_covariances(pb, cov_kf, kf, len(obj_ids)))
+
+
+def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None = None,
+                 images: dict | None = None) -> RefineResult:
+    """Bundle pose refinement of one static scene.
+
+    ``scene``: :class:`ycbvss.scene.Scene` (frames with cameras); ``models``: obj_id -> ObjectModel;
+    ``init``: {(im_id, obj_id): 4x4 mm object-to-camera}, may miss pairs; invalid ones (NaN, not a
+    rotation, behind the camera) are dropped with a warning. ``images``: im_id -> HxWx3 uint8
+    (default: ``frame.load_rgb()``). Stages: observations -> scene-consistent init -> keyframe
+    bundle (coarse to fine) -> camera-only non-keyframes -> poses, sigmas, status."""
+    opt = options or RefineOptions()
+    t_start = time.perf_counter()
+    frames, views, imgs, vidx = _scene_views(scene, images)
+    obs, obj_ids, missing = _observations(scene, models, init, vidx, frames)
+    log: list = []
+    stats: dict = {"n_views": len(views), "n_objects": len(obj_ids)}
+    pb0, known = _initialise_scene(views, models, obj_ids, obs, opt, log, stats)
+    init_poses = {(views[i].im_id, obj_ids[j]): pb0.pose(i, j) for i in range(len(views)) for j in range(len(obj_ids))}
+    T_c_init = pb0.T_c.copy()
+    n = len(views)
+    kf = _keyframes(n, opt.keyframe_step)
+    if opt.fix_cameras:
+        _use_known_cameras(pb0, frames, obs, len(obj_ids), scene.scene_id)
+    ks = _refine_keyframes(views, models, obj_ids, known, pb0, kf, opt, log, stats, imgs)
+    T_c, T_m, converged, visible, cam_cov = ks.T_c, ks.T_m, ks.stage.converged, ks.visible, ks.cam_cov
+    cam_move_mm, cam_move_deg = np.zeros(n), np.zeros(n)
+    cam_move_mm[kf], cam_move_deg[kf] = ks.stage.cam_move
+    nonkey = [i for i in range(n) if i not in set(kf)]
+    num_fail = ks.stage.numerical_failure
+    if nonkey and not opt.fix_cameras:
+        _interpolate_nonkey_cameras(T_c, T_c_init, kf, nonkey, {i for (i, _) in obs})
+        nk_res = _refine_nonkey(views, models, obj_ids, known, T_c, T_m, nonkey, opt, log, stats, imgs.keep)
+        T_c = nk_res["T_c"]
+        converged = converged and nk_res["converged"]
+        visible |= {(views[i].im_id, obj_ids[j]) for (i, j) in nk_res["visible"]}
+        cam_cov.update(nk_res["cam_cov"])
+        cam_move_mm[nonkey], cam_move_deg[nonkey] = nk_res["cam_move_mm"][nonkey], nk_res["cam_move_deg"][nonkey]
+        num_fail = num_fail or nk_res["numerical_failure"]
+    poses, failed, bad_cam, bad_obj = _final_poses(views, obj_ids, known, T_c, T_m, init_poses, num_fail,
+                                                   scene.scene_id)
+    converged = converged and not failed
+    sigma = calibrate_sigmas(pose_sigmas(np.where(bad_cam[:, None, None], T_c_init, T_c),
+                                         np.where(bad_obj[:, None, None], pb0.T_m, T_m), cam_cov, ks.obj_cov,
+                                         ks.cross, [v.im_id for v in views], obj_ids, known & ~bad_obj), ks.narrow)
+    stats["sigma_scale"] = list(sigma_scale(ks.narrow))
+    t0 = time.perf_counter()
+    quality = _quality_on_views(views, models, obj_ids, known & ~bad_obj, poses, opt, imgs)
+    stats["confidence_s"] = time.perf_counter() - t0
+    status, confidence, reasons = _statuses(poses, views, vidx, obj_ids, sigma, quality, ks.stage.obj_move,
+                                            (cam_move_mm, cam_move_deg), visible, failed)
     stats["total_s"] = time.perf_counter() - t_start
-    for k, v in list(stats.items()):
-        if isinstance(v, float):
-            stats[k] = round(v, 4)
+    stats.update({k: round(v, 4) for k, v in stats.items() if isinstance(v, float)})
     return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n) if not bad_cam[i]},
                         T_m2w={obj_ids[j]: T_m[j] for j in range(len(obj_ids)) if known[j] and not bad_obj[j]},
                         init_poses={k: v for k, v in init_poses.items() if known[obj_ids.index(k[1])]},
