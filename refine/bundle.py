@@ -712,8 +712,21 @@ def _final_poses(views: list, obj_ids: list, known: np.ndarray, T_c: np.ndarray,
     return poses, failed, bad_cam, bad_obj
 
 
+def _turn_from_init_deg(models: dict, obj_ids: list, T_m_init: np.ndarray, T_m: np.ndarray) -> np.ndarray:
+    """Rotation (deg) of each object's refined world pose from its scene-consistent initial one,
+    the smallest over the object's symmetry transforms (continuous axes in 10-degree steps); (m,)."""
+    out = np.zeros(len(obj_ids))
+    for j, o in enumerate(obj_ids):
+        if not (np.all(np.isfinite(T_m[j])) and np.all(np.isfinite(T_m_init[j]))):
+            continue
+        S = np.asarray(symmetry_transforms(models[o]))[:, :3, :3]
+        R = np.einsum("ab,nbc->nac", T_m_init[j][:3, :3], S)
+        out[j] = float(np.min(rotation_angle_deg(np.einsum("ba,nbc->nac", T_m[j][:3, :3], R))))
+    return out
+
+
 def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, quality: dict, obj_move: tuple,
-              cam_move: tuple, visible: set, failed: set) -> tuple[dict, dict, dict]:
+              cam_move: tuple, visible: set, failed: set, turned_deg: np.ndarray) -> tuple[dict, dict, dict]:
     """Status, confidence and reasons per pose (:func:`ycbvss.refine.confidence.classify`) from the
     calibrated sigmas, the contour quality and the last outer iteration's moves (mm, deg) of the
     pose's object and camera; records each object's own last move in ``quality``."""
@@ -725,7 +738,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
         moved = (float(obj_move[0][j]) + float(cam_move[0][i])
                  + np.radians(float(obj_move[1][j]) + float(cam_move[1][i])) * quality[oid]["radius_mm"])
         ps = classify(quality[oid]["contour_px"], sig, moved, observed=any(k[1] == oid for k in visible),
-                      numerical_failure=(im, oid) in failed, width_px=views[i].width)
+                      numerical_failure=(im, oid) in failed, width_px=views[i].width, turned_deg=turned_deg[j])
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
@@ -849,7 +862,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     quality = _quality_on_views(views, models, obj_ids, known & ~bad_obj, poses, opt, imgs)
     stats["confidence_s"] = time.perf_counter() - t0
     status, confidence, reasons = _statuses(poses, views, vidx, obj_ids, sigma, quality, ks.stage.obj_move,
-                                            (cam_move_mm, cam_move_deg), visible, failed)
+                                            (cam_move_mm, cam_move_deg), visible, failed,
+                                            _turn_from_init_deg(models, obj_ids, pb0.T_m, T_m))
     stats["total_s"] = time.perf_counter() - t_start
     stats.update({k: round(v, 4) for k, v in stats.items() if isinstance(v, float)})
     return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n) if not bad_cam[i]},

@@ -58,6 +58,10 @@ def test_classify_rules():
     assert classify(0.6, 0.5, 0.0, True, width_px=320).status == "uncertain"
     assert classify(1.4, 0.5, 0.0, True, width_px=320).status == "failed"
     assert classify(1.6, 0.5, 0.0, True, width_px=1280).status == "converged"
+    # an object that left its initial basin: the suite's foam brick flipped 75 deg, silhouette 0.07 px off
+    flip = classify(0.07, 0.5, 0.0, True, turned_deg=75.0)
+    assert flip.status == "uncertain" and "turned 75 deg" in flip.reason and flip.confidence < 0.5
+    assert classify(0.07, 0.5, 0.0, True, turned_deg=5.0).status == "converged"
 
 
 def test_contour_offset_measures_a_shifted_silhouette(scene3):
