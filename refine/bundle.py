@@ -712,14 +712,15 @@ def _final_poses(views: list, obj_ids: list, known: np.ndarray, T_c: np.ndarray,
     return poses, failed, bad_cam, bad_obj
 
 
-def _turn_from_init_deg(models: dict, obj_ids: list, T_m_init: np.ndarray, T_m: np.ndarray) -> np.ndarray:
+def _turn_from_init_deg(syms: list, T_m_init: np.ndarray, T_m: np.ndarray) -> np.ndarray:
     """Rotation (deg) of each object's refined world pose from its scene-consistent initial one,
-    the smallest over the object's symmetry transforms (continuous axes in 10-degree steps); (m,)."""
-    out = np.zeros(len(obj_ids))
-    for j, o in enumerate(obj_ids):
+    the smallest over the object's symmetry transforms ``syms[j]`` (continuous axes in 10-degree
+    steps); (m,)."""
+    out = np.zeros(len(syms))
+    for j in range(len(syms)):
         if not (np.all(np.isfinite(T_m[j])) and np.all(np.isfinite(T_m_init[j]))):
             continue
-        S = np.asarray(symmetry_transforms(models[o]))[:, :3, :3]
+        S = np.asarray(syms[j])[:, :3, :3]
         R = np.einsum("ab,nbc->nac", T_m_init[j][:3, :3], S)
         out[j] = float(np.min(rotation_angle_deg(np.einsum("ba,nbc->nac", T_m[j][:3, :3], R))))
     return out
@@ -746,9 +747,10 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
 
 
 def _initialise_scene(views: list, models: dict, obj_ids: list, obs: dict, opt: RefineOptions, log: list,
-                      stats: dict) -> tuple[BundleProblem, np.ndarray]:
+                      stats: dict) -> tuple[BundleProblem, np.ndarray, list]:
     """Scene-consistent initial cameras and objects (:func:`ycbvss.refine.init.initialise`) from
-    the observations {(view index, object index): 4x4 mm}; returns the problem and obj_known (m,)."""
+    the observations {(view index, object index): 4x4 mm}; returns the problem, obj_known (m,) and
+    each object's symmetry transforms (4x4 list)."""
     rng = np.random.default_rng(opt.seed)
     Xs = [sample_model_points(models[o].vertices_mm if models[o].path is not None else models[o].mesh.vertices,
                               opt.n_init_points, rng) for o in obj_ids]
@@ -758,7 +760,7 @@ def _initialise_scene(views: list, models: dict, obj_ids: list, obs: dict, opt: 
     stats["init_s"] = time.perf_counter() - t0
     pb0.obj_ids = obj_ids
     pb0.obj_known = known
-    return pb0, known
+    return pb0, known, syms
 
 
 def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, opt: RefineOptions,
@@ -829,7 +831,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     obs, obj_ids, missing = _observations(scene, models, init, vidx, frames)
     log: list = []
     stats: dict = {"n_views": len(views), "n_objects": len(obj_ids)}
-    pb0, known = _initialise_scene(views, models, obj_ids, obs, opt, log, stats)
+    pb0, known, syms = _initialise_scene(views, models, obj_ids, obs, opt, log, stats)
     init_poses = {(views[i].im_id, obj_ids[j]): pb0.pose(i, j) for i in range(len(views)) for j in range(len(obj_ids))}
     T_c_init = pb0.T_c.copy()
     n = len(views)
@@ -863,7 +865,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     stats["confidence_s"] = time.perf_counter() - t0
     status, confidence, reasons = _statuses(poses, views, vidx, obj_ids, sigma, quality, ks.stage.obj_move,
                                             (cam_move_mm, cam_move_deg), visible, failed,
-                                            _turn_from_init_deg(models, obj_ids, pb0.T_m, T_m))
+                                            _turn_from_init_deg(syms, pb0.T_m, T_m))
     stats["total_s"] = time.perf_counter() - t_start
     stats.update({k: round(v, 4) for k, v in stats.items() if isinstance(v, float)})
     return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n) if not bad_cam[i]},

@@ -13,6 +13,11 @@ import numpy as np
 from numba import njit
 
 
+def as_f64(x: np.ndarray) -> np.ndarray:
+    """C-contiguous float64 view/copy of x: the one argument form the refine kernels are compiled for."""
+    return np.ascontiguousarray(x, dtype=np.float64)
+
+
 @njit(cache=True, nogil=True)
 def normal_eq(Ja: np.ndarray, Jb: np.ndarray, A: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """H (ka + kb, ka + kb) and b (ka + kb,) for Jacobian halves Ja (N, 2, ka) and Jb (N, 2, kb)

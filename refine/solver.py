@@ -19,7 +19,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .normal_kernel import normal_eq
+from .normal_kernel import as_f64, normal_eq
 from .problem import BundleProblem
 from .terms import Linearization
 
@@ -39,17 +39,6 @@ class SolverOptions:
 DENSE_MAX_PARAMS = 1200   # normal matrices up to this size are assembled and solved dense (Cholesky)
 
 
-def _normal_block(J: np.ndarray, A: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The (k, k) normal matrix sum_n J_n^T A_n J_n and (k,) gradient sum_n J_n^T g_n of pixel
-    Jacobians J (N, 2, k), pixel Hessians A (N, 2, 2) and gradients g (N, 2) (compiled kernel,
-    :func:`ycbvss.refine.normal_kernel.normal_eq`)."""
-    return normal_eq(_f64(J), np.zeros((len(J), 2, 0)), _f64(A), _f64(g))
-
-
-def _f64(x: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(x, dtype=np.float64)
-
-
 def _lin_blocks(L: Linearization) -> tuple[list[tuple[int, int, np.ndarray]], list[tuple[int, np.ndarray]]]:
     """The normal-equation contributions of one linearisation: ([(p, q, 6x6 block) ...],
     [(p, 6-gradient) ...]) for its free blocks (a or b < 0: fixed, dropped; a == b: all four
@@ -57,12 +46,12 @@ def _lin_blocks(L: Linearization) -> tuple[list[tuple[int, int, np.ndarray]], li
     a, b = int(L.a), int(L.b)
     if len(L.g) == 0 or (a < 0 and b < 0):
         return [], []
-    A, g = _f64(L.A), _f64(L.g)
+    A, g = as_f64(L.A), as_f64(L.g)
     if a < 0 or b < 0:
         p, Jp = (a, L.Ja) if a >= 0 else (b, L.Jb)
-        H6, g6 = normal_eq(_f64(Jp), np.zeros((len(g), 2, 0)), A, g)
+        H6, g6 = normal_eq(as_f64(Jp), np.zeros((len(g), 2, 0)), A, g)
         return [(p, p, H6)], [(p, g6)]
-    H12, g12 = normal_eq(_f64(L.Ja), _f64(L.Jb), A, g)
+    H12, g12 = normal_eq(as_f64(L.Ja), as_f64(L.Jb), A, g)
     idx = ((a, 0), (b, 6))
     return ([(p, q, H12[P:P + 6, Q:Q + 6]) for p, P in idx for q, Q in idx],
             [(p, g12[P:P + 6]) for p, P in idx])

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..geometry.se3 import inv_T
 from .cubic_kernel import edge_cost_sum
+from .normal_kernel import as_f64
 from .edge import EdgeField, sample_E, sample_field
 from .jacobians import MIN_Z_MM, object_point_jacobians, project_points, transfer_point_jacobians
 from .problem import BundleProblem
@@ -56,10 +57,6 @@ def psd2(H: np.ndarray, floor: float = 0.0) -> np.ndarray:
     out[:, 1, 0] = v1 * co + v2 * ns
     out[:, 1, 1] = v1 * si + v2 * co
     return out
-
-
-def _f64(x: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(x, dtype=np.float64)
 
 
 @dataclass
@@ -101,8 +98,8 @@ class EdgeTerm:
                 tot += float(np.where(valid, E, 1.0).sum())
                 continue
             H, W = f.shape
-            tot += edge_cost_sum(f.E_padded, H, W, np.ascontiguousarray(pb.views[gr.i].K, dtype=np.float64),
-                                 pb.T_c[gr.i] @ pb.T_m[gr.j], _f64(gr.X), MIN_Z_MM)
+            tot += edge_cost_sum(f.E_padded, H, W, as_f64(pb.views[gr.i].K),
+                                 pb.T_c[gr.i] @ pb.T_m[gr.j], as_f64(gr.X), MIN_Z_MM)
         return self.weight * tot
 
     def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
