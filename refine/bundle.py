@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import YcbvssError
+from ..geometry.model_frame import bbox_center
 from ..geometry.se3 import interpolate_T, inv_T
 from ..geometry.so3 import is_rotation, rotation_angle_deg
 from ..geometry.symmetry import symmetry_transforms
@@ -25,7 +26,7 @@ from .solver import SolverOptions, covariance, run_lm
 from .templates import (composite, ensure_meshes, get_renderer, object_mask, render_view, select_edge_samples,
                         view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
-from .confidence import calibrate_sigmas, classify, contour_offset_px, sigma_add_mm, sigma_scale
+from .confidence import calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_scale
 from .uncertainty import pose_sigmas
 
 
@@ -726,11 +727,37 @@ def _turn_from_init_deg(syms: list, T_m_init: np.ndarray, T_m: np.ndarray) -> np
     return out
 
 
+def _shift_from_init_px(models: dict, views: list, vidx: dict, obj_ids: list, given: dict, consensus: dict,
+                        poses: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Per object, medians over its views (px, 0 without data) of how far its projected bounding-box
+    centre moved from the given initial pose's projection to the refined pose's, and how far the
+    given initial pose's projection lies from the scene-consistent initial pose's (the initial
+    poses' own disagreement); (m,) each. The centre is fixed under the object's symmetries."""
+    shift, scatter = np.zeros(len(obj_ids)), np.zeros(len(obj_ids))
+    for j, oid in enumerate(obj_ids):
+        m = models[oid]
+        c = np.append(bbox_center(m.vertices_mm if m.path is not None else np.asarray(m.mesh.vertices, float)), 1.0)
+        d, e = [], []
+        for (im, o), T0 in given.items():
+            if o != oid or im not in vidx or (im, o) not in poses or (im, o) not in consensus:
+                continue
+            K = views[vidx[im]].K
+            a, b, k = K @ (T0 @ c)[:3], K @ (poses[(im, o)] @ c)[:3], K @ (consensus[(im, o)] @ c)[:3]
+            if a[2] > 0 and b[2] > 0 and k[2] > 0:
+                d.append(float(np.hypot(*(a[:2] / a[2] - b[:2] / b[2]))))
+                e.append(float(np.hypot(*(a[:2] / a[2] - k[:2] / k[2]))))
+        shift[j], scatter[j] = (float(np.median(d)), float(np.median(e))) if d else (0.0, 0.0)
+    return shift, scatter
+
+
 def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, quality: dict, obj_move: tuple,
-              cam_move: tuple, visible: set, failed: set, turned_deg: np.ndarray) -> tuple[dict, dict, dict]:
+              cam_move: tuple, visible: set, failed: set, turned_deg: np.ndarray,
+              shift: tuple[np.ndarray, np.ndarray]) -> tuple[dict, dict, dict]:
     """Status, confidence and reasons per pose (:func:`ycbvss.refine.confidence.classify`) from the
-    calibrated sigmas, the contour quality and the last outer iteration's moves (mm, deg) of the
-    pose's object and camera; records each object's own last move in ``quality``."""
+    calibrated sigmas, the contour quality, the last outer iteration's moves (mm, deg) of the
+    pose's object and camera, the object's turn (deg) and its centre's shift and initial scatter (px,
+    :func:`_shift_from_init_px`) from the initial poses; records each object's own last move and
+    shift in ``quality``."""
     status, confidence, reasons = {}, {}, {}
     for (im, oid), P in poses.items():
         i, j = vidx[im], obj_ids.index(oid)
@@ -739,10 +766,13 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
         moved = (float(obj_move[0][j]) + float(cam_move[0][i])
                  + np.radians(float(obj_move[1][j]) + float(cam_move[1][i])) * quality[oid]["radius_mm"])
         ps = classify(quality[oid]["contour_px"], sig, moved, observed=any(k[1] == oid for k in visible),
-                      numerical_failure=(im, oid) in failed, width_px=views[i].width, turned_deg=turned_deg[j])
+                      numerical_failure=(im, oid) in failed, width_px=views[i].width, turned_deg=turned_deg[j],
+                      shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width))
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
+        quality[oid].setdefault("shift_px", round(float(shift[0][j]), 2))
+        quality[oid].setdefault("init_scatter_px", round(float(shift[1][j]), 2))
     return status, confidence, reasons
 
 
@@ -865,7 +895,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     stats["confidence_s"] = time.perf_counter() - t0
     status, confidence, reasons = _statuses(poses, views, vidx, obj_ids, sigma, quality, ks.stage.obj_move,
                                             (cam_move_mm, cam_move_deg), visible, failed,
-                                            _turn_from_init_deg(syms, pb0.T_m, T_m))
+                                            _turn_from_init_deg(syms, pb0.T_m, T_m),
+                                            _shift_from_init_px(models, views, vidx, obj_ids, init, init_poses, poses))
     stats["total_s"] = time.perf_counter() - t_start
     stats.update({k: round(v, 4) for k, v in stats.items() if isinstance(v, float)})
     return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n) if not bad_cam[i]},

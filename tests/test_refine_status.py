@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 from ycbvss.refine import RefineOptions, refine_scene
-from ycbvss.refine.confidence import classify, contour_offset_px
+from ycbvss.refine.confidence import classify, contour_offset_px, shift_limit_px
 from ycbvss.refine.edge import gradient_magnitude
 from ycbvss.refine.io import estimates_of
 from ycbvss.refine.solver import damped_solve
@@ -62,6 +62,12 @@ def test_classify_rules():
     flip = classify(0.07, 0.5, 0.0, True, turned_deg=75.0)
     assert flip.status == "uncertain" and "turned 75 deg" in flip.reason and flip.confidence < 0.5
     assert classify(0.07, 0.5, 0.0, True, turned_deg=5.0).status == "converged"
+    # ... or slid sideways: the suite's foam brick ended 35 mm off (23 px) with its silhouette 0.37 px off
+    lim = shift_limit_px(4.0)
+    assert lim == 15.0 and shift_limit_px(4.0, width_px=1280) == 30.0 and shift_limit_px(14.0) == 42.0
+    slid = classify(0.37, 0.5, 0.0, True, shifted_px=23.5, shift_limit_px=lim)
+    assert slid.status == "uncertain" and "moved 24 px" in slid.reason and slid.confidence < 0.5
+    assert classify(0.37, 0.5, 0.0, True, shifted_px=4.0, shift_limit_px=lim).status == "converged"
 
 
 def test_contour_offset_measures_a_shifted_silhouette(scene3):
