@@ -13,7 +13,10 @@ Three measurements per object of a scene:
   (2 sigma covers 90 % of the converged development poses per axis), folded into one ``sigma_add_mm``
   (the ADD a 1-sigma pose error would give).
 - ``moved_add_mm``: how far the pose moved in the last outer iteration (its camera's and its
-  object's translation change plus the rotation change acting at the object's mean radius).
+  object's translation change plus the rotation change acting at the object's mean radius). A
+  camera held fixed as the gauge moves as much as the free ones around it (the median of theirs),
+  and a non-keyframe camera adds the larger move of its two keyframes: motion is relative, and a
+  frame refined against a keyframe solution that still drifts has not stopped either.
 
 Status: ``failed`` for a numerical failure (NaN, singular system) or a contour clearly off the
 image edges (``contour_px > FAIL_PX``; both px thresholds are for 640-px-wide images, as YCB-V's,

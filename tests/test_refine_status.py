@@ -142,3 +142,19 @@ def test_no_valid_init_pose_gives_an_empty_result_not_a_crash(scene3):
         res = refine_scene(ps.scene, ps.models, bad, RefineOptions(), images=imgs)
     assert res.poses == {} and res.missing_objects == sorted(ps.models)
     assert any("no valid init pose" in str(x.message) for x in w)
+
+
+def test_a_non_keyframe_is_no_more_settled_than_its_keyframes():
+    """Held-out long clip 3: the keyframe bundle still moved by millimetres at its iteration cap
+    while the camera-only frames between its keyframes had stopped; they now inherit the larger move
+    of the two keyframes around them."""
+    from ycbvss.refine.bundle import _nonkey_moves
+
+    mm, deg = np.zeros(7), np.zeros(7)
+    kf, nonkey = [0, 3, 6], [1, 2, 4, 5]
+    mm[kf], deg[kf] = [0.0, 2.0, 0.1], [0.0, 0.3, 0.01]
+    own = {"cam_move_mm": np.full(7, 0.05), "cam_move_deg": np.full(7, 0.002)}
+    _nonkey_moves(mm, deg, kf, nonkey, own)
+    assert np.allclose(mm[nonkey], 2.05) and np.allclose(deg[nonkey], 0.302)
+    assert np.allclose(mm[kf], [0.0, 2.0, 0.1])            # the keyframes keep their own moves
+    assert classify(0.3, 0.5, mm[1], True).status == "uncertain"
