@@ -25,8 +25,8 @@ TERM_SETS = {"all terms": {}, "points only": {"use_edge": False},
 
 def render_variant(spec, models: dict, root: Path, frames: list[int], ambient: bool) -> Path:
     """Blender-render ``frames`` of suite scene ``spec`` into a BOP dataset under ``root``."""
-    import ycbvss.pipeline.blender_scene as bs
     from ycbvss.gt_info import compute_gt_info
+    from ycbvss.pipeline.blender_scene import render_blender
     from ycbvss.io.bop import BopSceneWriter
     from ycbvss.procedural.ycbv_scene import make_ycbv_scene
     from ycbvss.render import Renderer
@@ -36,26 +36,15 @@ def render_variant(spec, models: dict, root: Path, frames: list[int], ambient: b
     sc = make_ycbv_scene(models, list(spec.obj_ids), seed=spec.seed, n_frames=spec.n_frames,
                          arc_deg=spec.arc_deg, width=640, height=480, scene_id=spec.scene_id)
     sc.frames = [f for f in sc.frames if f.im_id in set(frames)]
-    make_job = bs.blender_job
-
-    def job(*a, **k):
-        j = make_job(*a, **k)
-        if ambient:
-            j["lights"], j["world_strength"] = [], 1.0
-        return j
-
-    bs.blender_job = job
-    try:
-        gl = Renderer()
-        writer = BopSceneWriter(root / "test", spec.scene_id)
-        by_id = {f.im_id: f for f in sc.frames}
-        for im_id, rgb, depth in bs.render_blender(sc, root / "models", root / "work", samples=12):
-            masks, masks_visib, info = compute_gt_info(gl, by_id[im_id], models, depth_mm_real=depth)
-            writer.write_frame(by_id[im_id], rgb=rgb, depth_mm=depth, masks=masks, masks_visib=masks_visib,
-                               gt_info=info)
-        writer.close()
-    finally:
-        bs.blender_job = make_job
+    light = {"lights": [], "world_strength": 1.0} if ambient else {}
+    gl = Renderer()
+    writer = BopSceneWriter(root / "test", spec.scene_id)
+    by_id = {f.im_id: f for f in sc.frames}
+    for im_id, rgb, depth in render_blender(sc, root / "models", root / "work", samples=12, **light):
+        masks, masks_visib, info = compute_gt_info(gl, by_id[im_id], models, depth_mm_real=depth)
+        writer.write_frame(by_id[im_id], rgb=rgb, depth_mm=depth, masks=masks, masks_visib=masks_visib,
+                           gt_info=info)
+    writer.close()
     return root
 
 

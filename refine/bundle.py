@@ -18,7 +18,7 @@ from ..geometry.so3 import is_rotation, rotation_angle_deg
 from ..geometry.symmetry import symmetry_transforms
 
 from .edge import edge_field, gradient_magnitude
-from .jacobians import backproject_px
+from .jacobians import backproject_px, project_points
 from .init import initialise, sample_model_points
 from .matching import FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow
 from .problem import BundleProblem, View
@@ -755,21 +755,21 @@ def _shift_from_init_px(models: dict, views: list, vidx: dict, obj_ids: list, gi
     centre moved from the given initial pose's projection to the refined pose's, and how far the
     given initial pose's projection lies from the scene-consistent initial pose's (the initial
     poses' own disagreement); (m,) each. The centre is fixed under the object's symmetries."""
-    shift, scatter = np.zeros(len(obj_ids)), np.zeros(len(obj_ids))
-    for j, oid in enumerate(obj_ids):
-        m = models[oid]
-        c = np.append(bbox_center(m.vertices_mm if m.path is not None else np.asarray(m.mesh.vertices, float)), 1.0)
-        d, e = [], []
-        for (im, o), T0 in given.items():
-            if o != oid or im not in vidx or (im, o) not in poses or (im, o) not in consensus:
-                continue
-            K = views[vidx[im]].K
-            a, b, k = K @ (T0 @ c)[:3], K @ (poses[(im, o)] @ c)[:3], K @ (consensus[(im, o)] @ c)[:3]
-            if a[2] > 0 and b[2] > 0 and k[2] > 0:
-                d.append(float(np.hypot(*(a[:2] / a[2] - b[:2] / b[2]))))
-                e.append(float(np.hypot(*(a[:2] / a[2] - k[:2] / k[2]))))
-        shift[j], scatter[j] = (float(np.median(d)), float(np.median(e))) if d else (0.0, 0.0)
-    return shift, scatter
+    col = {o: j for j, o in enumerate(obj_ids)}
+    centre = {o: bbox_center(models[o].vertices_mm if models[o].path is not None
+                             else np.asarray(models[o].mesh.vertices, float))[None] for o in obj_ids}
+    shift, scatter = [[] for _ in obj_ids], [[] for _ in obj_ids]
+    for (im, o), T0 in given.items():
+        key = (im, o)
+        if o not in col or im not in vidx or key not in poses or key not in consensus:
+            continue
+        K = views[vidx[im]].K
+        uv, ok = zip(*(project_points(K, T, centre[o]) for T in (T0, poses[key], consensus[key])))
+        if all(v[0] for v in ok):
+            shift[col[o]].append(float(np.linalg.norm(uv[0][0] - uv[1][0])))
+            scatter[col[o]].append(float(np.linalg.norm(uv[0][0] - uv[2][0])))
+    med = [[float(np.median(v)) if v else 0.0 for v in x] for x in (shift, scatter)]
+    return np.array(med[0]), np.array(med[1])
 
 
 def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, quality: dict, obj_move: tuple,

@@ -35,8 +35,10 @@ def srgb_u8_to_linear(rgb: np.ndarray) -> np.ndarray:
 
 
 def blender_job(scene: ProceduralScene, models_dir: Path, work_dir: Path, samples: int = 12,
-                denoise: bool = True, with_table: bool = False) -> dict:
-    """The render job dict (see ``ycbvss.synth.blender.render_job``) for all frames of ``scene``."""
+                denoise: bool = True, with_table: bool = False, lights: list | None = None,
+                world_strength: float | None = None) -> dict:
+    """The render job dict (see ``ycbvss.synth.blender.render_job``) for all frames of ``scene``;
+    ``lights`` / ``world_strength`` replace the Blender session's default lighting when given."""
     work_dir = Path(work_dir)
     if all(m.path is not None and Path(m.path).is_file() for m in scene.models.values()):
         paths = {oid: Path(m.path) for oid, m in scene.models.items()}     # models already on disk (BOP PLY)
@@ -53,20 +55,27 @@ def blender_job(scene: ProceduralScene, models_dir: Path, work_dir: Path, sample
             objs.append({"mesh": "table", "pass_index": 0, "T_m2c": np.asarray(f.T_w2c).tolist()})
         frames.append({"id": f"{f.im_id:06d}", "K": np.asarray(f.camera.K).tolist(), "objects": objs,
                        "out_dir": str(work_dir / "frames"), "full_frame": bool(with_table)})
-    return {"width": scene.width, "height": scene.height, "samples": int(samples), "seed": int(scene.seed),
-            "denoise": bool(denoise), "meshes": meshes, "frames": frames}
+    job = {"width": scene.width, "height": scene.height, "samples": int(samples), "seed": int(scene.seed),
+           "denoise": bool(denoise), "meshes": meshes, "frames": frames}
+    if lights is not None:
+        job["lights"] = lights
+    if world_strength is not None:
+        job["world_strength"] = float(world_strength)
+    return job
 
 
 def render_blender(scene: ProceduralScene, models_dir: str | Path, work_dir: str | Path, samples: int = 12,
                    denoise: bool = True, workers: int = 1, noise_sigma: float = 1.5, with_table: bool = False,
-                   renderer=None, on_frame=None) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
+                   renderer=None, on_frame=None, lights: list | None = None,
+                   world_strength: float | None = None) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
     """Render every frame with Blender; yield ``(im_id, rgb uint8, depth_mm float32)`` in frame order.
 
     ``models_dir`` receives the BOP model files (the scene's models then point at them);
     ``work_dir`` the table mesh and Blender's EXR/PNG outputs. ``noise_sigma``: Gaussian sensor
     noise (8-bit units) added after encoding. ``on_frame()`` is called as Blender finishes each
-    frame (all frames are path traced before the first one is yielded)."""
-    job = blender_job(scene, Path(models_dir), Path(work_dir), samples, denoise, with_table)
+    frame (all frames are path traced before the first one is yielded). ``lights`` /
+    ``world_strength``: see :func:`blender_job`."""
+    job = blender_job(scene, Path(models_dir), Path(work_dir), samples, denoise, with_table, lights, world_strength)
     results = render_job(job, workers=workers, on_done=(lambda _r: on_frame()) if on_frame else None)
     r = _renderer(scene, renderer)
     bg = srgb_u8_to_linear(np.asarray(scene.background_rgb, np.float64))
