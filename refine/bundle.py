@@ -71,6 +71,7 @@ class RefineOptions:
     edge_interp: str = "cubic"        # "cubic" (Catmull-Rom) or "linear" sampling of the edge field
     edge_colour: bool = True          # edge strength from the three colour channels, not the grey value
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
+    edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     verify_coarse: bool = True        # undo an object's coarse-level move the next finer level's edges disagree with
@@ -194,14 +195,21 @@ class _Stage:
             terms.append(self._temporal_term(renders))
         return terms
 
+    def _blur_match_sigma(self, fields: dict) -> float | None:
+        """Blur (px) of the level's edge field the contour samples are matched to, None when off."""
+        if not (self.opt.edge_blur_match and fields):
+            return None
+        return next(iter(fields.values())).sigma_px
+
     def _edge_term(self, fields: dict, renders: dict, vis: set) -> EdgeTerm:
         """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
         (view, object), drawn in view order from candidates computed on the thread pool."""
         pb, opt = self.pb, self.opt
         t0 = time.perf_counter()
         groups = []
+        blur = self._blur_match_sigma(fields)
         jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
-                                            fold_min_angle_deg=self.fold_angle))
+                                            fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur))
                 for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
         for i, vr, job in jobs:
             for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, self.rng).items():
@@ -294,7 +302,8 @@ class _Stage:
         tot, cnt = np.zeros(len(pb.obj_ids)), np.zeros(len(pb.obj_ids))
         for i in self.term_views:
             vr = self.render(i)
-            cand = view_edge_candidates(vr, creases=opt.edge_creases, fold_min_angle_deg=self.fold_angle)
+            cand = view_edge_candidates(vr, creases=opt.edge_creases, fold_min_angle_deg=self.fold_angle,
+                                        blur_sigma_px=self._blur_match_sigma(fields))
             for j, X in select_edge_samples(vr, pb.views[i].K, cand, opt.n_edge_points, rng).items():
                 if len(X) >= opt.min_visible_px:
                     term = EdgeTerm([fields.get(k) for k in range(len(pb.views))], [EdgeGroup(i, j, X)])
