@@ -18,22 +18,31 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .edge import edge_field, sample_bilinear, sample_E
+from .edge import EdgeField, gradient_magnitude, sample_bilinear, sample_E
 
 
 
 def search_px(sigma_px: float) -> tuple[float, float]:
-    """Half-width and step (px) of the search along the normal around the geometric contour point:
-    1 + sigma / 2 px wide (the blur shift reaches about sigma^2 / (2 * radius)), steps of
-    sigma / 40 px (at least 0.05 px; the minimum is refined by a parabola through its neighbours)."""
-    return 1.0 + 0.5 * sigma_px, max(0.05, sigma_px / 40.0)
+    """Half-width and coarse step (px) of the search along the normal around the geometric contour
+    point: 1 + sigma / 2 px wide (the blur shift reaches about sigma^2 / (2 * radius)), steps of
+    max(0.25, sigma / 8) px; the coarse minimum is refined on a five times finer grid and a parabola."""
+    return 1.0 + 0.5 * sigma_px, max(0.25, sigma_px / 8.0)
 
 
-def _crop_box(mask: np.ndarray, margin_px: int) -> tuple[int, int, int, int]:
-    ys, xs = np.nonzero(mask.any(axis=1))[0], np.nonzero(mask.any(axis=0))[0]
-    H, W = mask.shape
-    return (max(ys[0] - margin_px, 0), max(xs[0] - margin_px, 0),
-            min(ys[-1] + margin_px + 1, H), min(xs[-1] + margin_px + 1, W))
+def _crop_box(uv: np.ndarray, shape: tuple[int, int], margin_px: int) -> tuple[int, int, int, int]:
+    """(y0, x0, y1, x1) of the samples uv (N, 2) grown by ``margin_px``, clipped to ``shape``."""
+    H, W = shape
+    lo = np.floor(uv.min(axis=0)).astype(int) - margin_px
+    hi = np.ceil(uv.max(axis=0)).astype(int) + margin_px + 1
+    return max(lo[1], 0), max(lo[0], 0), min(hi[1], H), min(hi[0], W)
+
+
+def _edge_cost(mask_f: np.ndarray, sigma_px: float) -> EdgeField:
+    """E only (no derivatives) of a silhouette image, as :func:`ycbvss.refine.edge.edge_field` computes it."""
+    mag = gradient_magnitude(mask_f, sigma_px)
+    mx = float(mag.max())
+    E = np.ones_like(mag) if mx <= 1e-6 else 1.0 - mag / mx
+    return EdgeField(E[..., None], float(sigma_px))
 
 
 def _outward_normals(mask_f: np.ndarray, sigma_px: float, uv: np.ndarray) -> np.ndarray:
@@ -47,18 +56,29 @@ def _outward_normals(mask_f: np.ndarray, sigma_px: float, uv: np.ndarray) -> np.
     return np.where(nn > 1e-9, n / np.maximum(nn, 1e-9), 0.0)
 
 
-def _minimum_along(field, uv: np.ndarray, n: np.ndarray, half_px: float, step_px: float) -> np.ndarray:
-    """Signed offsets t (N,) in [-half_px, half_px] of the minimum of E along uv + t n
-    (grid search, then a parabola through the grid minimum and its two neighbours)."""
-    s = np.arange(-half_px, half_px + 1e-9, step_px)
-    P = (uv[:, None, :] + s[None, :, None] * n[:, None, :]).reshape(-1, 2)
+def _grid_minimum(field, uv: np.ndarray, n: np.ndarray, t0: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Index (N,) of the smallest E along uv + (t0 + s) n over the offsets s (S,), and E (N, S)."""
+    t = t0[:, None] + s[None, :]
+    P = (uv[:, None, :] + t[..., None] * n[:, None, :]).reshape(-1, 2)
     E = sample_E(field, P).reshape(len(uv), len(s))
-    k = np.clip(np.argmin(E, axis=1), 1, len(s) - 2)
+    return np.argmin(E, axis=1), E
+
+
+def _minimum_along(field, uv: np.ndarray, n: np.ndarray, half_px: float, step_px: float) -> np.ndarray:
+    """Signed offsets t (N,) in [-half_px, half_px] of the minimum of E along uv + t n: coarse grid
+    of ``step_px``, a five times finer grid around its minimum, a parabola through the fine minimum
+    and its two neighbours."""
+    coarse = np.arange(-half_px, half_px + 1e-9, step_px)
+    k, _ = _grid_minimum(field, uv, n, np.zeros(len(uv)), coarse)
+    fine_step = step_px / 5.0
+    fine = np.arange(-5, 6) * fine_step
+    k2, E = _grid_minimum(field, uv, n, coarse[k], fine)
+    k2 = np.clip(k2, 1, len(fine) - 2)
     r = np.arange(len(uv))
-    e0, e1, e2 = E[r, k - 1], E[r, k], E[r, k + 1]
+    e0, e1, e2 = E[r, k2 - 1], E[r, k2], E[r, k2 + 1]
     den = e0 - 2.0 * e1 + e2
     frac = np.where(den > 1e-12, 0.5 * (e0 - e2) / np.where(den > 1e-12, den, 1.0), 0.0)
-    return s[k] + np.clip(frac, -1.0, 1.0) * step_px
+    return np.clip(coarse[k] + fine[k2] + np.clip(frac, -1.0, 1.0) * fine_step, -half_px, half_px)
 
 
 def match_contour_to_blur(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, sigma_px: float) -> np.ndarray:
@@ -73,14 +93,11 @@ def match_contour_to_blur(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, 
     margin = int(np.ceil(3.0 * max(sigma_px, 1.0) + half_px)) + 2
     for lab in np.unique(labels):
         sel = np.flatnonzero(labels == lab)
-        m = inst == lab
-        if not m.any():
-            continue
-        y0, x0, y1, x1 = _crop_box(m, margin)
-        mask_f = m[y0:y1, x0:x1].astype(np.float32) * 255.0
+        y0, x0, y1, x1 = _crop_box(out[sel], inst.shape, margin)
+        mask_f = (inst[y0:y1, x0:x1] == lab).astype(np.float32) * 255.0
         p = out[sel] - (x0, y0)
         n = _outward_normals(mask_f, sigma_px, p)
-        t = _minimum_along(edge_field(mask_f, sigma_px), p, n, half_px, step_px)
+        t = _minimum_along(_edge_cost(mask_f, sigma_px), p, n, half_px, step_px)
         ok = (np.abs(t) < half_px - step_px) & np.any(n != 0.0, axis=1)
         out[sel[ok]] = out[sel[ok]] + t[ok, None] * n[ok]
     return out
