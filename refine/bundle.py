@@ -71,6 +71,7 @@ class RefineOptions:
     edge_interp: str = "cubic"        # "cubic" (Catmull-Rom) or "linear" sampling of the edge field
     edge_colour: bool = True          # edge strength from the three colour channels, not the grey value
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
+    edge_linear: bool = False         # edge field of the linear-light image (sRGB decoded), see refine.edge.srgb_to_linear
     edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
@@ -374,7 +375,7 @@ class _Stage:
             self.fold_angle = 180.0 if (finest and not opt.folds_at_finest) else opt.fold_min_angle_deg
             t0 = time.perf_counter()
             fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_interp,
-                                  opt.edge_colour) for i in self.term_views}
+                                  opt.edge_colour, opt.edge_linear) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
             if li > 0 and opt.verify_coarse:
                 self._verify_coarse_moves(T_m_level, fields, f"{sigmas[li - 1]:g}->{sigma:g}")

@@ -23,7 +23,7 @@ def to_gray_f32(image: np.ndarray) -> np.ndarray:
     """RGB uint8 (H, W, 3) or gray (H, W) -> gray float32 in [0, 255]."""
     img = np.asarray(image)
     if img.ndim == 3:
-        img = cv2.cvtColor(img.astype(np.uint8), cv2.COLOR_RGB2GRAY)
+        img = cv2.cvtColor(img if img.dtype == np.uint8 else img.astype(np.float32), cv2.COLOR_RGB2GRAY)
     return img.astype(np.float32)
 
 
@@ -78,19 +78,40 @@ def gradient_magnitude(image: np.ndarray, sigma_px: float) -> np.ndarray:
     return np.sqrt(s)
 
 
+def srgb_to_linear(image: np.ndarray) -> np.ndarray:
+    """8-bit sRGB-encoded image -> linear light float32 in [0, 255] (IEC 61966-2-1 decoding through
+    colour-science, as a 256-entry table). Blur and anti-aliasing mix light linearly, so an edge's
+    gradient peak is symmetric only in linear light; in the encoded image it leans towards the
+    darker side (a bright object looks larger, a dark one smaller)."""
+    global _SRGB_LUT
+    if _SRGB_LUT is None:
+        import colour  # lazy: colour-science takes ~1 s to import
+        _SRGB_LUT = (colour.cctf_decoding(np.arange(256) / 255.0, function="sRGB") * 255.0).astype(np.float32)
+    img = np.asarray(image)
+    if img.dtype != np.uint8:
+        img = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+    return _SRGB_LUT[img]
+
+
+_SRGB_LUT: np.ndarray | None = None
+
+
 def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float = 100.0,
-               interp: str = "cubic", colour: bool = False) -> EdgeField:
+               interp: str = "cubic", colour: bool = False, linear: bool = False) -> EdgeField:
     """Edge field of an image (RGB or gray) at blur ``sigma_px``.
 
     ``colour``: edge strength from all three channels (:func:`gradient_magnitude` of the RGB
     image) instead of the grey value; objects whose colour differs from the background mostly in
     hue (same brightness) keep their silhouettes.
 
+    ``linear``: edge strength of the linear-light image (:func:`srgb_to_linear`), not of the
+    sRGB-encoded values.
+
     ``norm_percentile`` = 100 is the paper's normalisation by the maximum gradient; a lower
     percentile (robust maximum, values above it clip to E = 0) keeps one very strong edge from
     flattening all others. A uniform image (max gradient 0) gives E = 1 everywhere and zero
     derivatives (no pull)."""
-    img = np.asarray(image)
+    img = srgb_to_linear(image) if linear else np.asarray(image)
     mag = gradient_magnitude(img if (colour and img.ndim == 3) else to_gray_f32(img), sigma_px)
     mx = float(mag.max()) if norm_percentile >= 100 else float(np.percentile(mag, norm_percentile))
     if mx <= 1e-6:
