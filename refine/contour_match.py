@@ -21,7 +21,6 @@ import numpy as np
 from .edge import EdgeField, gradient_magnitude, sample_bilinear, sample_E
 
 
-
 def search_px(sigma_px: float) -> tuple[float, float]:
     """Half-width and coarse step (px) of the search along the normal around the geometric contour
     point: 1 + sigma / 2 px wide (the blur shift reaches about sigma^2 / (2 * radius)), steps of
