@@ -18,6 +18,7 @@ from ..geometry.so3 import is_rotation, rotation_angle_deg
 from ..geometry.symmetry import symmetry_transforms
 
 from .edge import edge_field, gradient_magnitude
+from .flow_prior import predicted_flow, relative_motion
 from .jacobians import backproject_px, project_points
 from .init import initialise, sample_model_points
 from .matching import FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow
@@ -28,6 +29,11 @@ from .templates import (composite, ensure_meshes, get_renderer, object_mask, ren
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .confidence import calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_scale
 from .uncertainty import pose_sigmas
+
+
+# blur levels (px at 640 px width) at which ``edge_appearance`` applies (the finest of (8, 4, 2, 1)): at coarser ones the background
+# beside a contour sample is no constant within the blur's reach
+APPEARANCE_MAX_SIGMA_PX = 1.5
 
 
 @dataclass
@@ -73,6 +79,7 @@ class RefineOptions:
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
     edge_linear: bool = False         # edge field of the linear-light image (sRGB decoded), see refine.edge.srgb_to_linear
     edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
+    edge_appearance: bool = False     # ... moved by what the template's texture and the image's background predict, at the finest blur level
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     verify_coarse: bool = True        # undo an object's coarse-level move the next finer level's edges disagree with
@@ -83,6 +90,7 @@ class RefineOptions:
     n_matches: int = 1000
     match_erode_px: int = 6
     flow_margin_px: int = 24
+    flow_prior: bool = False          # f_t's flow starts from the motion the current estimate predicts (refine.flow_prior)
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
@@ -209,8 +217,11 @@ class _Stage:
         t0 = time.perf_counter()
         groups = []
         blur = self._blur_match_sigma(fields)
+        app = (opt.edge_appearance and blur is not None
+               and blur <= APPEARANCE_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
         jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
-                                            fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur))
+                                            fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur,
+                                            image=pb.views[i].image if app else None))
                 for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
         for i, vr, job in jobs:
             for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, self.rng).items():
@@ -269,11 +280,21 @@ class _Stage:
             vr = renders[k]
             key = (min(k, i), max(k, i))
             if key not in self._flows:        # one forward/backward flow pair serves both directions
+                if opt.flow_prior and i not in renders:
+                    renders[i] = self.render(i)
                 both = (vr.instance > 0) | ((renders[i].instance > 0) if i in renders else False)
-                y0, y1, x0, x1 = _bbox(both, 2 * opt.flow_margin_px)
+                box = _bbox(both, 2 * opt.flow_margin_px)
+                y0, y1, x0, x1 = box
                 a = normalize_for_flow(pb.views[key[0]].image[y0:y1, x0:x1])
                 b = normalize_for_flow(pb.views[key[1]].image[y0:y1, x0:x1])
-                self._flows[key] = (dense_flow_pair(a, b, opt.flow), (y0, y1, x0, x1))
+                init_ab = init_ba = None
+                if opt.flow_prior:         # start from the motion the current estimate predicts
+                    p, q = key
+                    init_ab = predicted_flow(renders[p].depth_mm, pb.views[p].K, pb.views[q].K,
+                                             relative_motion(pb.T_c[p], pb.T_c[q]), box)
+                    init_ba = predicted_flow(renders[q].depth_mm, pb.views[q].K, pb.views[p].K,
+                                             relative_motion(pb.T_c[q], pb.T_c[p]), box)
+                self._flows[key] = (dense_flow_pair(a, b, opt.flow, init_ab, init_ba), box)
             (fab, fba), (y0, y1, x0, x1) = self._flows[key]
             flows = (fab, fba) if k == key[0] else (fba, fab)
             m = np.zeros(vr.instance.shape, bool)

@@ -52,19 +52,27 @@ def _pool() -> ThreadPoolExecutor:
     return _POOL[1]
 
 
-def dense_flow(src: np.ndarray, dst: np.ndarray, opt: FlowOptions) -> np.ndarray:
-    """Farneback flow (H, W, 2) float32: src(x) ~ dst(x + flow(x))."""
-    return cv2.calcOpticalFlowFarneback(_gray_u8(src), _gray_u8(dst), None, opt.pyr_scale, opt.levels,
-                                        opt.winsize, opt.iterations, opt.poly_n, opt.poly_sigma, 0)
+def dense_flow(src: np.ndarray, dst: np.ndarray, opt: FlowOptions, init: np.ndarray | None = None) -> np.ndarray:
+    """Farneback flow (H, W, 2) float32: src(x) ~ dst(x + flow(x)). ``init`` (H, W, 2): a predicted
+    flow to start from (``cv2.OPTFLOW_USE_INITIAL_FLOW``), e.g. :func:`ycbvss.refine.flow_prior.predicted_flow`."""
+    if init is None:
+        return cv2.calcOpticalFlowFarneback(_gray_u8(src), _gray_u8(dst), None, opt.pyr_scale, opt.levels,
+                                            opt.winsize, opt.iterations, opt.poly_n, opt.poly_sigma, 0)
+    flow = np.array(init, dtype=np.float32, copy=True, order="C")
+    return cv2.calcOpticalFlowFarneback(_gray_u8(src), _gray_u8(dst), flow, opt.pyr_scale, opt.levels,
+                                        opt.winsize, opt.iterations, opt.poly_n, opt.poly_sigma,
+                                        cv2.OPTFLOW_USE_INITIAL_FLOW)
 
 
-def dense_flow_pair(a: np.ndarray, b: np.ndarray, opt: FlowOptions) -> tuple[np.ndarray, np.ndarray]:
+def dense_flow_pair(a: np.ndarray, b: np.ndarray, opt: FlowOptions, init_ab: np.ndarray | None = None,
+                    init_ba: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(:func:`dense_flow` (a, b), :func:`dense_flow` (b, a)), the two computed concurrently
-    (the backward one in a worker thread); the same flows as two sequential calls."""
+    (the backward one in a worker thread); the same flows as two sequential calls. ``init_ab`` /
+    ``init_ba``: predicted flows to start each from."""
     ga, gb = _gray_u8(a), _gray_u8(b)
-    bwd = _pool().submit(dense_flow, gb, ga, opt)
+    bwd = _pool().submit(dense_flow, gb, ga, opt, init_ba)
     try:
-        fwd = dense_flow(ga, gb, opt)
+        fwd = dense_flow(ga, gb, opt, init_ab)
     finally:
         out = bwd.result()
     return fwd, out

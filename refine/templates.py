@@ -10,7 +10,7 @@ import numpy as np
 
 from ..geometry.se3 import inv_T
 from ..render import Renderer
-from .contour_match import match_contour_to_blur
+from .contour_match import appearance_offsets, match_contour_to_blur
 from .edge import all_contour_points, all_interior_points, contour_points, interior_points, subsample
 from .jacobians import backproject_px
 
@@ -108,17 +108,24 @@ class EdgeCandidates:
 
 
 def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True,
-                         fold_min_angle_deg: float = 25.0, blur_sigma_px: float | None = None) -> EdgeCandidates:
+                         fold_min_angle_deg: float = 25.0, blur_sigma_px: float | None = None,
+                         image: np.ndarray | None = None) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
     self-occlusions) to the interior candidates, see :func:`ycbvss.refine.edge.crease_edges`.
     ``blur_sigma_px``: move the contour samples to where an edge field of that blur shows the
     silhouette (:func:`ycbvss.refine.contour_match.match_contour_to_blur`); None: half a pixel
-    outside the contour pixels."""
+    outside the contour pixels. ``image`` (with ``blur_sigma_px``): also move them by what the
+    template's texture and the image's background beside them predict
+    (:func:`ycbvss.refine.contour_match.appearance_offsets`)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm)
     if blur_sigma_px is not None:
+        geo = uv_c
         uv_c = match_contour_to_blur(uv_c, l_c, vr.instance, blur_sigma_px)
+        if image is not None:
+            off, n = appearance_offsets(geo, l_c, vr.instance, vr.color, image, blur_sigma_px)
+            uv_c = uv_c + off[:, None] * n
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal if creases else None,
                                          erode_px=erode_px, fold_min_angle_deg=fold_min_angle_deg)
     return EdgeCandidates(uv_c, d_c, l_c, uv_i, d_i, l_i)

@@ -1,0 +1,104 @@
+"""Appearance-predicted contour offsets (refine.contour_match.appearance_offsets) against
+anti-aliased colour discs.
+
+The image is an 8x8 supersampled disc whose albedo darkens towards its rim, averaged in linear light
+(as a camera or Cycles' pixel filter integrates light) and then sRGB-encoded to uint8; the template
+is the pixel-centre sampled silhouette with the albedo sampled at pixel centres, as the fast
+renderer draws it. Neither comes from the refiner's renderer. The measured quantity: along each
+contour sample's radius, where the image's colour edge field has its minimum, relative to the
+binary blur-matched sample, against the offset appearance_offsets predicts.
+"""
+import numpy as np
+import pytest
+
+from ycbvss.refine.contour_match import appearance_offsets, match_contour_to_blur
+from ycbvss.refine.edge import contour_points, edge_field, sample_E, srgb_to_linear
+
+SS = 8
+
+
+def _encode(lin: np.ndarray) -> np.ndarray:
+    x = np.clip(lin / 255.0, 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055) * 255.0
+
+
+def _albedo_lin(r: np.ndarray, radius_px: float, inside_srgb, rim_px: float, rim_factor: float) -> np.ndarray:
+    """Linear-light albedo (.., 3): the inside colour, darkened by ``rim_factor`` within ``rim_px`` of the rim."""
+    base = srgb_to_linear(np.array(inside_srgb, np.uint8)).astype(np.float64)
+    k = np.where(r > radius_px - rim_px, rim_factor, 1.0)
+    return k[..., None] * base
+
+
+def _scene(radius_px, cx, cy, inside, background, rim_px, rim_factor, size=110):
+    yy, xx = (np.mgrid[0:size * SS, 0:size * SS] + 0.5) / SS - 0.5
+    r = np.hypot(xx - cx, yy - cy)
+    bg = srgb_to_linear(np.array(background, np.uint8)).astype(np.float64)
+    lin = np.where((r < radius_px)[..., None], _albedo_lin(r, radius_px, inside, rim_px, rim_factor), bg)
+    lin = lin.reshape(size, SS, size, SS, 3).mean(axis=(1, 3))
+    image = np.clip(np.rint(_encode(lin)), 0, 255).astype(np.uint8)
+    py, px = np.mgrid[0:size, 0:size].astype(np.float64)
+    rp = np.hypot(px - cx, py - cy)
+    inst = (rp < radius_px).astype(np.int32)
+    tmpl = np.clip(np.rint(_encode(_albedo_lin(rp, radius_px, inside, rim_px, rim_factor))), 0, 255).astype(np.uint8)
+    tmpl[inst == 0] = 0
+    return image, inst, tmpl
+
+
+def _image_offsets(image, uv, centre, sigma_px) -> np.ndarray:
+    """Per sample: radius of the image edge field's minimum minus the sample's radius (px)."""
+    field = edge_field(image, sigma_px, colour=True)
+    r = np.linalg.norm(uv - centre, axis=1)
+    n = (uv - centre) / r[:, None]
+    s = np.linspace(-2.0, 2.0, 401)
+    E = np.stack([sample_E(field, uv + t * n) for t in s], axis=1)
+    return s[np.argmin(E, axis=1)]
+
+
+@pytest.mark.parametrize("inside,background,rim_px,rim_factor", [
+    ((230, 200, 60), (70, 50, 35), 0.0, 1.0),      # bright flat object on a dark table: the sRGB lean only
+    ((200, 40, 40), (90, 65, 40), 1.5, 0.55),      # a red box whose scanned texture darkens at the rim
+    ((40, 40, 45), (150, 120, 90), 1.0, 1.6),      # a dark object whose rim is brighter
+])
+def test_appearance_offsets_predict_the_image_edge(inside, background, rim_px, rim_factor):
+    rng = np.random.default_rng(11)
+    binary_err, app_err = [], []
+    for _ in range(3):
+        cx, cy = 55.0 + rng.random(), 55.0 + rng.random()
+        image, inst, tmpl = _scene(30.0, cx, cy, inside, background, rim_px, rim_factor)
+        uv, _ = contour_points(inst, inst * 1000.0, 1)
+        labels = np.ones(len(uv), int)
+        uvm = match_contour_to_blur(uv, labels, inst, 1.0)
+        t_img = _image_offsets(image, uvm, np.array([cx, cy]), 1.0)
+        off, n = appearance_offsets(uv, labels, inst, tmpl, image, 1.0)
+        radial = np.einsum("ij,ij->i", n, (uvm - (cx, cy)) / np.linalg.norm(uvm - (cx, cy), axis=1, keepdims=True))
+        binary_err.append(np.mean(t_img))
+        app_err.append(np.mean(t_img - off * radial))
+    # the flat-silhouette prediction misses by 0.08-0.45 px here. The appearance model leaves < 0.04 px
+    # on a flat or brightened rim; on the darkened rim 0.1 px (measured 0.09-0.13): the template holds
+    # the albedo at pixel centres only, the image integrates it over each pixel, and the 1.5 px wide
+    # dark band makes a second edge 1.5 px inside that the blur merges with the silhouette
+    assert abs(np.mean(binary_err)) > 0.07, binary_err
+    bound = 0.13 if rim_factor < 1.0 else 0.04
+    assert abs(np.mean(app_err)) < bound, (binary_err, app_err)
+    assert abs(np.mean(app_err)) < 0.35 * abs(np.mean(binary_err)), (binary_err, app_err)
+
+
+def test_the_srgb_lean_points_to_the_darker_side():
+    """A bright object on a dark table looks larger (offset outward, > 0), a dark one on a bright
+    table smaller: the anti-aliased ramp is mixed in linear light, the edge field sees it encoded."""
+    means = {}
+    for name, inside, background in (("bright", (235, 235, 235), (40, 40, 40)), ("dark", (40, 40, 40), (235, 235, 235))):
+        image, inst, tmpl = _scene(25.0, 50.3, 50.6, inside, background, 0.0, 1.0, size=100)
+        uv, _ = contour_points(inst, inst * 1000.0, 1)
+        off, _ = appearance_offsets(uv, np.ones(len(uv), int), inst, tmpl, image, 1.0)
+        means[name] = float(np.mean(off))
+    assert means["bright"] > 0.05 and means["dark"] < -0.05, means
+
+
+def test_small_silhouettes_get_no_offset():
+    inst = np.zeros((40, 40), np.int32)
+    inst[18:22, 18:22] = 1                          # 16 px: below the 20 px minimum
+    uv, _ = contour_points(inst, inst * 1000.0, 1)
+    img = np.full((40, 40, 3), 200, np.uint8)
+    off, _ = appearance_offsets(uv, np.ones(len(uv), int), inst, img, img, 1.0)
+    assert np.all(off == 0.0)
