@@ -21,7 +21,8 @@ from .edge import edge_field, gradient_magnitude
 from .flow_prior import predicted_flow, relative_motion
 from .jacobians import backproject_px, project_points
 from .init import initialise, sample_model_points
-from .matching import FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow
+from .matching import (FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow,
+                       residual_flow_pair)
 from .problem import BundleProblem, View
 from .solver import SolverOptions, covariance, run_lm
 from .templates import (composite, ensure_meshes, get_renderer, object_mask, render_view, select_edge_samples,
@@ -90,7 +91,7 @@ class RefineOptions:
     n_matches: int = 1000
     match_erode_px: int = 6
     flow_margin_px: int = 24
-    flow_prior: bool = False          # f_t's flow starts from the motion the current estimate predicts (refine.flow_prior)
+    flow_prior: bool | str = False    # f_t's flow from the motion the current estimate predicts (refine.flow_prior): "residual" warps by it, True starts Farneback from it
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
@@ -294,7 +295,12 @@ class _Stage:
                                              relative_motion(pb.T_c[p], pb.T_c[q]), box)
                     init_ba = predicted_flow(renders[q].depth_mm, pb.views[q].K, pb.views[p].K,
                                              relative_motion(pb.T_c[q], pb.T_c[p]), box)
-                self._flows[key] = (dense_flow_pair(a, b, opt.flow, init_ab, init_ba), box)
+                if init_ab is None:
+                    self._flows[key] = (dense_flow_pair(a, b, opt.flow), box)
+                elif opt.flow_prior == "residual":
+                    self._flows[key] = (residual_flow_pair(a, b, opt.flow, init_ab, init_ba), box)
+                else:
+                    self._flows[key] = (dense_flow_pair(a, b, opt.flow, init_ab, init_ba), box)
             (fab, fba), (y0, y1, x0, x1) = self._flows[key]
             flows = (fab, fba) if k == key[0] else (fba, fab)
             m = np.zeros(vr.instance.shape, bool)
@@ -398,6 +404,8 @@ class _Stage:
             fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_interp,
                                   opt.edge_colour, opt.edge_linear) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
+            if li > 0 and opt.flow_prior:
+                self._flows.clear()    # f_t's flows follow the estimate: predicted again from this level's start
             if li > 0 and opt.verify_coarse:
                 self._verify_coarse_moves(T_m_level, fields, f"{sigmas[li - 1]:g}->{sigma:g}")
             T_m_level = pb.T_m.copy()

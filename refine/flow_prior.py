@@ -1,18 +1,34 @@
-"""The image motion the current scene estimate predicts between two views: a warm start for f_t's flow.
+"""The image motion the current scene estimate predicts between two views, for f_t's flow.
 
 f_t matches points of view k into view i by dense Farneback flow between the two real images. The
-keyframes of a long clip are about 7.5 degrees apart and their images move by 20-60 px, beyond what
-a three-level Farneback pyramid follows from a zero start. Measured on suite scene 1 with
-``bench/bench_temporal_flow.py`` (pairs 25 frames apart, exact correspondences from Blender's
-depth): from zero, 26 % of the matches that pass the forward-backward check are more than 2 px
-wrong (mostly flow that stayed near zero in both directions) and only the slower half of the scene
-is matched; started from :func:`predicted_flow`, 1 % are, with no mean error along the motion.
-Pairs 1-8 frames apart (1-11 px) are matched equally well from either start.
+keyframes of a long clip are about 7.5 degrees apart and their images move by 20-60 px. Measured
+on suite scene 1 with ``bench/bench_temporal_flow.py`` (exact correspondences from Blender's depth):
 
-Off by default (``RefineOptions.flow_prior``): on long clip 1's eight keyframes, refined from the
-exact GT, f_t moves the whole scene towards the cameras with either start (mean dz -0.70 mm from
-zero, -1.53 mm warm-started; without f_t +1.24 mm; with f_t fed the exact correspondences +1.17 mm),
-so the better matches do not remove f_t's depth bias on wide keyframe pairs; they make it larger.
+- from a zero start, 26 % of the matches that pass the forward-backward check on pairs 25 frames
+  apart are more than 2 px wrong (flow that stayed near zero both ways), and only the slower half of
+  the scene is matched; pairs 1-8 frames apart (1-11 px) are matched to 0.06-0.15 px;
+- Farneback's smoothing also compresses the motion differences between near and far points (the
+  parallax that carries depth): the error along the motion falls by 0.01-0.02 px per px a point
+  moves faster than the median (25-frame pairs), and a small near object takes its background's
+  motion (``tests/test_flow_prior.py``: a 20 px square moving 30 px over a background moving 22 px
+  gets 21.2 px even when Farneback starts from the right motion).
+
+On long clip 1's eight keyframes refined from the exact GT this moves the whole scene towards the
+cameras: mean dz -0.70 mm with f_t, +1.24 mm without it, +1.17 mm with f_t fed the exact
+correspondences. ``RefineOptions.flow_prior``:
+
+- ``True``: Farneback starts from :func:`predicted_flow` (``cv2.OPTFLOW_USE_INITIAL_FLOW``): 1 % of
+  the matches > 2 px wrong, but the compression stays and the shift grows (-1.53 mm);
+- ``"residual"``: the second image is warped by the prediction and Farneback finds only the residual
+  (:func:`ycbvss.refine.matching.residual_flow_pair`), re-predicted at every blur level. With the
+  predicting camera 0.3 deg / 3 mm off, the 25-frame pairs' matches are 0.11 px off (median; 0.37
+  started from the prediction, 0.51 from zero) with no compression (slope 0.000 px/px against
+  -0.014 and, with its outliers, -1.4), the 8-frame pairs' 0.08 px (0.15). From the exact GT on long-1's keyframes:
+  +1.06 mm, f_t no longer moves the scene; what is left is the edges' recession (see the README).
+
+Off by default: removing f_t's pull uncovers the edges' opposite bias, so on long-1 alone the
+depth error grows (from the exact GT |dz| 0.70 -> 1.06 mm; from the paper's initial error on the
+keyframes tz 1.17 -> 1.21 mm). With ``RefineOptions.edge_appearance`` as well: 0.65 and 0.72 mm.
 """
 from __future__ import annotations
 

@@ -78,6 +78,31 @@ def dense_flow_pair(a: np.ndarray, b: np.ndarray, opt: FlowOptions, init_ab: np.
     return fwd, out
 
 
+def warp_by_flow(img: np.ndarray, flow: np.ndarray) -> np.ndarray:
+    """``img`` resampled at x + flow(x) (bilinear, border replicated): the image a flow predicts
+    for the source view."""
+    h, w = flow.shape[:2]
+    gx, gy = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
+    return cv2.remap(img, gx + flow[..., 0], gy + flow[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+
+def residual_flow_pair(a: np.ndarray, b: np.ndarray, opt: FlowOptions, prior_ab: np.ndarray,
+                       prior_ba: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Forward and backward flow between a and b as a prediction plus what Farneback finds between
+    one image and the other warped by that prediction: with b_w(x) = b(x + prior(x)) and
+    a(x) ~ b_w(x + r(x)), flow(x) = r(x) + prior(x + r(x)). Farneback's smoothing then acts on the residual r only; on
+    the full flow of a wide pair it compresses the motion differences between near and far
+    points by 1-2 % (``bench/bench_temporal_flow.py``)."""
+    ga, gb = _gray_u8(a), _gray_u8(b)
+    bwd = _pool().submit(dense_flow, gb, warp_by_flow(ga, prior_ba), opt)
+    try:
+        fwd = dense_flow(ga, warp_by_flow(gb, prior_ab), opt)
+    finally:
+        back = bwd.result()
+    # a(x) ~ b_w(x + r(x)) = b(x + r(x) + prior(x + r(x))): the prediction is read where r points
+    return fwd + warp_by_flow(prior_ab, fwd), back + warp_by_flow(prior_ba, back)
+
+
 def _mask_box(mask: np.ndarray, margin: int) -> tuple[int, int, int, int]:
     """Bounding box (y0, y1, x0, x1) of a non-empty mask grown by ``margin`` px, clipped to it."""
     H, W = mask.shape
