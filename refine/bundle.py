@@ -538,18 +538,16 @@ def _id_list(ids: list[int]) -> str:
     return ", ".join(str(i) for i in ids)
 
 
-def _object_quality(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, opt: RefineOptions,
-                    n_views: int = 8) -> dict:
-    """Per object: ``contour_px`` = median over up to ``n_views`` evenly spaced views of the
-    offset (px) of the visible contour from the image's edges at the refined poses
-    (:func:`ycbvss.refine.confidence.contour_offset_px`), ``radius_mm`` = mean vertex distance
-    from the model origin."""
-    renderer = get_renderer()
-    idx = np.unique(np.round(np.linspace(0, len(views) - 1, min(n_views, len(views)))).astype(int))
-    per: dict[int, list[float]] = {o: [] for o in obj_ids}
-    for i in idx:
-        v = views[i]
+def _view_contour_offsets(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict,
+                          renderer=None) -> dict[int, dict[int, float]]:
+    """Per view (its index in ``views``, whose images are loaded): obj_id -> offset (px) of the
+    object's visible contour from the image's edges at the refined poses
+    (:func:`ycbvss.refine.confidence.contour_offset_px`; objects without a visible contour left out)."""
+    renderer = renderer or get_renderer()
+    out: dict[int, dict[int, float]] = {}
+    for i, v in enumerate(views):
         P = {j: poses[(v.im_id, o)] for j, o in enumerate(obj_ids) if ok[j] and (v.im_id, o) in poses}
+        out[i] = {}
         if not P:
             continue
         vr = render_view(renderer, models, obj_ids, v.K, v.width, v.height, P)
@@ -558,13 +556,21 @@ def _object_quality(views: list, models: dict, obj_ids: list, ok: np.ndarray, po
         for j in vr.obj_index:
             r = contour_offset_px(mag, mag_t, vr.instance, vr.depth_mm, vr.label_of(j))
             if np.isfinite(r):
-                per[obj_ids[j]].append(r)
+                out[i][obj_ids[j]] = float(r)
+    return out
+
+
+def _object_quality(per_view: dict[int, dict[int, float]], models: dict, obj_ids: list) -> dict:
+    """Per object: ``contour_px`` = median over the given views' contour offsets (px) of the object
+    (:func:`_view_contour_offsets`), ``contour_views`` how many, ``radius_mm`` = mean vertex
+    distance from the model origin."""
     out = {}
-    for j, o in enumerate(obj_ids):
+    for o in obj_ids:
+        vals = [d[o] for d in per_view.values() if o in d]
         m = models[o]
         V = m.vertices_mm if m.path is not None else np.asarray(m.mesh.vertices, np.float64)
-        out[o] = {"contour_px": float(np.median(per[o])) if per[o] else float("nan"),
-                  "contour_views": len(per[o]), "radius_mm": float(np.linalg.norm(V, axis=1).mean())}
+        out[o] = {"contour_px": float(np.median(vals)) if vals else float("nan"),
+                  "contour_views": len(vals), "radius_mm": float(np.linalg.norm(V, axis=1).mean())}
     return out
 
 
@@ -813,12 +819,14 @@ def _shift_from_init_px(models: dict, views: list, vidx: dict, obj_ids: list, gi
 
 def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, quality: dict, obj_move: tuple,
               cam_move: tuple, visible: set, failed: set, turned_deg: np.ndarray,
-              shift: tuple[np.ndarray, np.ndarray]) -> tuple[dict, dict, dict]:
+              shift: tuple[np.ndarray, np.ndarray], view_contour_px: np.ndarray | None = None
+              ) -> tuple[dict, dict, dict]:
     """Status, confidence and reasons per pose (:func:`ycbvss.refine.confidence.classify`) from the
     calibrated sigmas, the contour quality, the last outer iteration's moves (mm, deg) of the
     pose's object and camera, the object's turn (deg) and its centre's shift and initial scatter (px,
     :func:`_shift_from_init_px`) from the initial poses; records each object's own last move and
-    shift in ``quality``."""
+    shift in ``quality``. ``view_contour_px`` (n,): the median contour offset of each view's objects;
+    a pose's contour counts as the larger of its object's (median over views) and its view's."""
     status, confidence, reasons = {}, {}, {}
     for (im, oid), P in poses.items():
         i, j = vidx[im], obj_ids.index(oid)
@@ -826,7 +834,10 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
         sig = (sigma_add_mm(sp["sigma_t_mm"], sp["sigma_r_deg"], quality[oid]["radius_mm"]) if sp else None)
         moved = (float(obj_move[0][j]) + float(cam_move[0][i])
                  + np.radians(float(obj_move[1][j]) + float(cam_move[1][i])) * quality[oid]["radius_mm"])
-        ps = classify(quality[oid]["contour_px"], sig, moved, observed=any(k[1] == oid for k in visible),
+        c = quality[oid]["contour_px"]
+        if view_contour_px is not None and np.isfinite(view_contour_px[i]):
+            c = max(c, float(view_contour_px[i])) if np.isfinite(c) else float(view_contour_px[i])
+        ps = classify(c, sig, moved, observed=any(k[1] == oid for k in visible),
                       numerical_failure=(im, oid) in failed, width_px=views[i].width, turned_deg=turned_deg[j],
                       shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width))
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
@@ -855,14 +866,26 @@ def _initialise_scene(views: list, models: dict, obj_ids: list, obs: dict, opt: 
 
 
 def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, opt: RefineOptions,
-                      imgs: _SceneImages, n_views: int = 8) -> dict:
-    """:func:`_object_quality` on up to ``n_views`` evenly spaced views (only their images loaded)."""
+                      imgs: _SceneImages, n_views: int = 8, chunk: int = 40) -> tuple[dict, np.ndarray]:
+    """Contour offsets of every view, images loaded ``chunk`` at a time (bounded memory). Returns
+    (per-object quality from up to ``n_views`` evenly spaced views, :func:`_object_quality`;
+    per-view median over its objects' offsets (n,), NaN where no contour is visible): a camera left
+    off puts every object of its view off the image edges, which the per-object median over a few
+    views does not see."""
     n = len(views)
-    q_idx = np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))
-    imgs.keep(q_idx)
-    quality = _object_quality([views[i] for i in q_idx], models, obj_ids, ok, poses, opt)
+    renderer = get_renderer()
+    per_view: dict[int, dict[int, float]] = {}
+    for c0 in range(0, n, max(chunk, 1)):
+        idx = list(range(c0, min(c0 + chunk, n)))
+        imgs.keep(idx)
+        sub = _view_contour_offsets([views[i] for i in idx], models, obj_ids, ok, poses, renderer)
+        per_view.update({idx[k]: d for k, d in sub.items()})
     imgs.keep([])
-    return quality
+    q_idx = np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))
+    quality = _object_quality({int(i): per_view[int(i)] for i in q_idx}, models, obj_ids)
+    view_px = np.array([float(np.median(list(per_view[i].values()))) if per_view[i] else float("nan")
+                        for i in range(n)])
+    return quality, view_px
 
 
 @dataclass
@@ -952,12 +975,14 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                                          ks.cross, [v.im_id for v in views], obj_ids, known & ~bad_obj), ks.narrow)
     stats["sigma_scale"] = list(sigma_scale(ks.narrow))
     t0 = time.perf_counter()
-    quality = _quality_on_views(views, models, obj_ids, known & ~bad_obj, poses, opt, imgs)
+    quality, view_px = _quality_on_views(views, models, obj_ids, known & ~bad_obj, poses, opt, imgs)
+    stats["view_contour_px"] = [round(float(x), 3) for x in view_px]
     stats["confidence_s"] = time.perf_counter() - t0
     status, confidence, reasons = _statuses(poses, views, vidx, obj_ids, sigma, quality, ks.stage.obj_move,
                                             (cam_move_mm, cam_move_deg), visible, failed,
                                             _turn_from_init_deg(syms, pb0.T_m, T_m),
-                                            _shift_from_init_px(models, views, vidx, obj_ids, init, init_poses, poses))
+                                            _shift_from_init_px(models, views, vidx, obj_ids, init, init_poses, poses),
+                                            view_px)
     stats["total_s"] = time.perf_counter() - t_start
     stats.update({k: round(v, 4) for k, v in stats.items() if isinstance(v, float)})
     return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n) if not bad_cam[i]},

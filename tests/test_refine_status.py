@@ -163,3 +163,39 @@ def test_a_non_keyframe_is_no_more_settled_than_its_keyframes():
     assert np.allclose(mm[nonkey], 2.05) and np.allclose(deg[nonkey], 0.302)
     assert np.allclose(mm[kf], [0.0, 2.0, 0.1])            # the keyframes keep their own moves
     assert classify(0.3, 0.5, mm[1], True).status == "uncertain"
+
+
+def test_a_camera_left_off_flags_every_pose_of_its_view(scene3):
+    """A camera solved wrongly (here: every object of view 1 shifted 4 mm sideways, about 2 px) while
+    the objects fit the other views: the per-object median over views still reads a tight contour,
+    the per-view median does not, and the view's poses are no longer 'converged'. Found on the suite
+    (long clip 1 from initial ADD 40 mm): frames 0 and 63 ended 5 deg off on all objects (ADD 12-32 mm),
+    reported converged."""
+    from ycbvss.refine import bundle as B
+    from ycbvss.refine.problem import View
+    from ycbvss.refine.templates import ensure_meshes, get_renderer
+
+    ps, imgs, gt = scene3
+    ensure_meshes(get_renderer(), ps.models)
+    frames = sorted(ps.frames, key=lambda f: f.im_id)
+    views = [View(f.im_id, f.camera.K, f.camera.width, f.camera.height, imgs[f.im_id]) for f in frames]
+    obj_ids = sorted({i.obj_id for f in frames for i in f.instances})
+    poses = {k: T.copy() for k, T in gt.items()}
+    for o in obj_ids:
+        poses[(frames[1].im_id, o)][:3, 3] += (4.0, 0.0, 0.0)
+    per_view = B._view_contour_offsets(views, ps.models, obj_ids, np.ones(len(obj_ids), bool), poses)
+    view_px = np.array([np.median(list(per_view[i].values())) for i in range(len(views))])
+    quality = B._object_quality(per_view, ps.models, obj_ids)
+    assert view_px[1] > 1.0 and view_px[0] < 0.8 and view_px[2] < 0.8, view_px
+    n = len(views)
+    vidx = {v.im_id: i for i, v in enumerate(views)}
+    sigma = {"poses": {k: {"sigma_t_mm": np.array([0.1, 0.1, 0.3]), "sigma_r_deg": 0.05} for k in poses}}
+    zeros = (np.zeros(len(obj_ids)), np.zeros(len(obj_ids)))
+    args = (poses, views, vidx, obj_ids, sigma, quality, zeros, (np.zeros(n), np.zeros(n)), set(poses), set(),
+            np.zeros(len(obj_ids)), (np.zeros(len(obj_ids)), np.full(len(obj_ids), 4.0)))
+    before, _, _ = B._statuses(*args)
+    after, conf, reasons = B._statuses(*args, view_contour_px=view_px)
+    bad = [k for k in poses if k[0] == frames[1].im_id]
+    assert any(before[k] == "converged" for k in bad), before
+    assert all(after[k] != "converged" for k in bad), reasons
+    assert all(after[k] == before[k] for k in poses if k not in bad)
