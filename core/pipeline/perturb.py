@@ -96,12 +96,15 @@ def _errors(est: np.ndarray, gt: np.ndarray, Ks: np.ndarray, groups: dict) -> tu
 
 def perturb_poses(gt_poses: dict, Ks: dict, points_mm: dict, target_add_mm: float = 22.1,
                   target_prj_px: float = 5.2, seed: int = 0, shape=YCBV_ORIGINAL_SHAPE,
-                  max_points: int = 1000, tol: float = 0.003, max_iter: int = 60) -> PerturbResult:
+                  max_points: int = 1000, tol: float = 0.003, max_iter: int = 60,
+                  depth_scale: float | None = None) -> PerturbResult:
     """Perturb exact poses so that the mean ADD / PRJ over all pairs match the targets.
 
     ``gt_poses``: key -> 4x4 T_m2c (mm), key = (..., obj_id) with the object id last;
     ``Ks``: key -> 3x3 intrinsics of that key's view; ``points_mm``: obj_id -> (N,3) model points
     (subsampled to ``max_points`` for the calibration). Pure: same inputs and seed -> same output.
+    With ``depth_scale`` the depth scale ``a`` is held at that value and only ``b`` is calibrated,
+    to the PRJ target (``target_add_mm`` is then not a target; the achieved ADD is reported).
     """
     keys = sorted(gt_poses)
     if not keys:
@@ -117,16 +120,17 @@ def perturb_poses(gt_poses: dict, Ks: dict, points_mm: dict, target_add_mm: floa
     rng = np.random.default_rng(seed)
     z = rng.standard_normal((len(keys), 6))
     shape = np.asarray(shape, np.float64)
-    a, b = 1.0, 1.0
+    a, b = (1.0 if depth_scale is None else float(depth_scale)), 1.0
     converged = False
     for _ in range(max_iter):
         est = _apply(gt, frames, z, shape, a, b)
         add, prj = _errors(est, gt, K, groups)
         m_add, m_prj = add.mean(), prj.mean()
-        if abs(m_add / target_add_mm - 1) < tol and abs(m_prj / target_prj_px - 1) < tol:
+        if (depth_scale is not None or abs(m_add / target_add_mm - 1) < tol) and abs(m_prj / target_prj_px - 1) < tol:
             converged = True
             break
-        a *= (target_add_mm / max(m_add, 1e-9)) ** 0.9
+        if depth_scale is None:
+            a *= (target_add_mm / max(m_add, 1e-9)) ** 0.9
         b *= (target_prj_px / max(m_prj, 1e-9)) ** 0.9
         a, b = float(np.clip(a, 0.0, 1e4)), float(np.clip(b, 0.0, 1e4))
     msg = "" if converged else ("targets not reachable together with this error shape; achieved values "

@@ -157,17 +157,33 @@ def _covered(r: dict, k: float = 2.0) -> bool:
     return all(np.isfinite(r[s]) and r[e] <= k * f * r[s] for (e, s), f in zip(SIGMA_AXES, _scale_of(r, True)))
 
 
+def _capture_axis(init: str) -> tuple[str, float] | None:
+    """(axis, sort key) of a capture-range level: ("add", mm) for add<N>, ("prj", px) for prj<N>;
+    the paper's init (22.1 mm, 5.2 px) lies on both curves."""
+    if init.startswith("add"):
+        return "add", float(init[3:])
+    if init.startswith("prj"):
+        return "prj", float(init[3:])
+    return None
+
+
 def capture_table(rows: list[dict]) -> tuple[Table, dict]:
-    """Share of poses refined to ADD < 2 mm per init level (mean initial ADD, PRJ), per clip kind."""
-    clips = {r["clip"] for r in rows if r["init"].startswith("add")}
+    """Share of poses refined to ADD < 2 mm per init level (mean initial ADD, PRJ), per clip kind.
+
+    Two curves per kind: against the initial mean ADD (levels ``add<N>``, PRJ growing with it) and
+    against the initial mean PRJ at ADD 22.1 mm (levels ``prj<N>``); the paper's init is on both.
+    Returns (table, curves) with curves[axis][kind] = [(init ADD mm, init PRJ px, share), ...]."""
+    clips = {r["clip"] for r in rows if _capture_axis(r["init"])}
     rows = [r for r in rows if r["clip"] in clips]          # the clips the levels were run on
-    levels = sorted({r["init"] for r in rows if r["init"].startswith("add") or r["init"] == "paper"},
-                    key=lambda s: 22.1 if s == "paper" else float(s[3:]))
+    inits = {r["init"] for r in rows if _capture_axis(r["init"]) or r["init"] == "paper"}
+    levels = sorted(inits, key=lambda s: (0, 22.1) if s == "paper" else
+                    (0 if _capture_axis(s)[0] == "add" else 1, _capture_axis(s)[1]))
     kinds = [k for k in ("short", "medium", "long") if any(r["kind"] == k for r in rows)]
     t = Table(columns=["init ADD (mm)", "init PRJ (px)"] + [f"{k}: ADD<2mm" for k in kinds], label_header="init",
               caption="Capture range: share of poses refined to ADD < 2 mm (clips: " + ", ".join(sorted(clips)) + ")",
               digits=3)
-    curves: dict = {k: [] for k in kinds}
+    axes = sorted({_capture_axis(lv)[0] for lv in levels if lv != "paper"})
+    curves: dict = {a: {k: [] for k in kinds} for a in axes}
     for lv in levels:
         rs = _sel(rows, init=lv, variant="using all")
         vals = []
@@ -176,24 +192,31 @@ def capture_table(rows: list[dict]) -> tuple[Table, dict]:
             frac = float(np.mean([r["add_mm"] < 2 for r in rk])) if rk else float("nan")
             vals.append(frac)
             if rk:
-                curves[k].append((_mean(rk, "init_add_mm"), _mean(rk, "init_prj_px"), frac))
+                for a in (axes if lv == "paper" else [_capture_axis(lv)[0]]):
+                    curves[a][k].append((_mean(rk, "init_add_mm"), _mean(rk, "init_prj_px"), frac))
         t.rows.append(Row(lv, [_mean(rs, "init_add_mm"), _mean(rs, "init_prj_px")] + vals))
     return t, curves
 
 
 def capture_png(curves: dict, path: Path) -> Path:
+    """One panel per axis: share refined to ADD < 2 mm against the initial mean ADD (mm; PRJ grows
+    with it) and, if measured, against the initial mean PRJ (px; ADD held at 22.1 mm)."""
     plt = pyplot()
 
-    fig, ax = plt.subplots(figsize=(5.5, 3.6))
-    for k, pts in curves.items():
-        if pts:
-            pts = sorted(pts)
-            ax.plot([p[0] for p in pts], [p[2] for p in pts], "o-", label=f"{k} clips")
-    ax.set_xlabel("initial mean ADD (mm)  [PRJ = ADD x 5.2/22.1 px]")
-    ax.set_ylabel("share refined to ADD < 2 mm")
-    ax.set_ylim(0, 1.02)
-    ax.grid(alpha=0.3)
-    ax.legend()
+    axes = [a for a in ("add", "prj") if a in curves]
+    fig, axs = plt.subplots(1, len(axes), figsize=(5.5 * len(axes), 3.6), squeeze=False)
+    for ax, a in zip(axs[0], axes):
+        col = 0 if a == "add" else 1
+        for k, pts in curves[a].items():
+            if pts:
+                pts = sorted(pts, key=lambda p: p[col])
+                ax.plot([p[col] for p in pts], [p[2] for p in pts], "o-", label=f"{k} clips")
+        ax.set_xlabel("initial mean ADD (mm)  [PRJ = ADD x 5.2/22.1 px]" if a == "add"
+                      else "initial mean PRJ (px)  [ADD = 22.1 mm]")
+        ax.set_ylabel("share refined to ADD < 2 mm")
+        ax.set_ylim(0, 1.02)
+        ax.grid(alpha=0.3)
+        ax.legend()
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=120)
@@ -270,7 +293,7 @@ def write_report(rows: list[dict], models: dict, out: Path, visib: dict | None =
             paths[f"bias_{k}"] = write_table(bias_table(rows, models, k), out, f"bias_{k}")[0]
     paths["coverage"] = write_table(coverage_table(rows), out, "coverage")[0]
     paths["status"] = write_table(status_table(rows), out, "status")[0]
-    if any(r["init"].startswith("add") for r in rows):
+    if any(_capture_axis(r["init"]) for r in rows):
         t, curves = capture_table(rows)
         paths["capture"] = write_table(t, out, "capture")[0]
         paths["capture_png"] = capture_png(curves, out / "capture.png")

@@ -3,7 +3,9 @@
 One run = (clip, init mode, seed, variant). Init modes: ``paper`` (GT + an independent random
 deviation per (view, object) calibrated to mean ADD 22.1 mm / PRJ 5.2 px, as the paper's initial
 poses), ``gt`` (exact ground truth: the bias test), ``add<N>`` (the deviation calibrated to mean
-ADD N mm and PRJ N * 5.2 / 22.1 px: the capture-range curve). Each run appends its per-pose rows
+ADD N mm and PRJ N * 5.2 / 22.1 px: the capture-range curve against ADD), ``prj<N>`` (the paper
+init's depth error, same random draws, with the lateral and rotational part scaled to mean PRJ
+N px: the capture-range curve against PRJ; ADD grows with it). Each run appends its per-pose rows
 to ``rows.csv`` under ``out/`` and leaves a done marker, so an interrupted run resumes.
 
 Per pose the rows hold tx, ty, tz (mm), R (deg; for the bowl under ADD-S the rotation about its
@@ -41,7 +43,7 @@ VARIANTS = {"using all": {}, "w/o f_edge": {"use_edge": False}, "w/o f_point": {
 @dataclass(frozen=True)
 class Run:
     clip: Clip
-    init: str          # "paper" | "gt" | "add<N>"
+    init: str          # "paper" | "gt" | "add<N>" | "prj<N>"
     seed: int
     variant: str = "using all"
 
@@ -64,11 +66,27 @@ def init_targets(init: str) -> tuple[float, float] | None:
     if init.startswith("add"):
         a = float(init[3:])
         return a, a * 5.2 / 22.1
-    raise YcbvssError(f"unknown init mode {init!r} (paper, gt, add<mm>)")
+    if init.startswith("prj"):
+        return 22.1, float(init[3:])    # ADD: the paper's depth scale is held, see initial_poses
+    raise YcbvssError(f"unknown init mode {init!r} (paper, gt, add<mm>, prj<px>)")
 
 
 def _seed_of(run: Run) -> int:
     return int(hashlib.sha256(f"{run.clip.name}/{run.init}/{run.seed}".encode()).hexdigest()[:8], 16)
+
+
+def initial_poses(run: Run, gt: dict, Ks: dict, pts: dict) -> dict:
+    """The run's initial poses {(im_id, obj_id): 4x4}: the exact GT, or the GT plus the calibrated
+    deviation of its init mode. ``prj<N>`` draws the same deviations as the paper's init (same
+    seed), holds their depth scale and rescales the lateral/rotational part to mean PRJ N px."""
+    tgt = init_targets(run.init)
+    if tgt is None:
+        return {k: T.copy() for k, T in gt.items()}
+    if run.init.startswith("prj"):
+        seed = _seed_of(Run(run.clip, "paper", run.seed, run.variant))
+        a = perturb_poses(gt, Ks, pts, 22.1, 5.2, seed=seed).depth_scale
+        return perturb_poses(gt, Ks, pts, tgt[0], tgt[1], seed=seed, depth_scale=a).poses
+    return perturb_poses(gt, Ks, pts, tgt[0], tgt[1], seed=_seed_of(run)).poses
 
 
 def _bowl_free_rotation_deg(R_est: np.ndarray, R_gt: np.ndarray, axis: np.ndarray) -> float:
@@ -85,11 +103,7 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
     gt = {(f.im_id, i.obj_id): i.T_m2c for f in sc.frames for i in f.instances}
     Ks = {k: next(f.camera.K for f in sc.frames if f.im_id == k[0]) for k in gt}
     pts = {o: models[o].vertices_mm for o in {k[1] for k in gt}}
-    tgt = init_targets(run.init)
-    if tgt is None:
-        init = {k: T.copy() for k, T in gt.items()}
-    else:
-        init = perturb_poses(gt, Ks, pts, tgt[0], tgt[1], seed=_seed_of(run)).poses
+    init = initial_poses(run, gt, Ks, pts)
     kw = dict(VARIANTS[run.variant])
     kw.update(opts_kw or {})
     ro = RefineOptions(keyframe_step=keyframe_step_for(len(sc.frames)), seed=run.seed, **kw)
@@ -205,6 +219,8 @@ def read_rows(path: Path) -> list[dict]:
 
 
 CAPTURE_LEVELS = ("add5", "add10", "add22.1", "add40", "add60")
+# the PRJ axis of the capture range: mean ADD held at the paper's 22.1 mm
+CAPTURE_PRJ_LEVELS = ("prj2", "prj10", "prj15", "prj20")
 
 
 def run_suite(src: str | Path, out: str | Path, suite: str = "ycbv21", scene_ids=None,
@@ -218,7 +234,7 @@ def run_suite(src: str | Path, out: str | Path, suite: str = "ycbv21", scene_ids
                 gt_kinds=tuple(kinds) if bias else None, ablation_kinds=("long",) if ablation else ())
     for spec in specs:
         for c in clips_of(spec, capture_kinds):
-            runs += [Run(c, lv, s) for lv in CAPTURE_LEVELS for s in capture_seeds]
+            runs += [Run(c, lv, s) for lv in CAPTURE_LEVELS + CAPTURE_PRJ_LEVELS for s in capture_seeds]
     rows_path = execute(runs, out / "dataset", models, out / "runs")
     rows = read_rows(rows_path) if rows_path.is_file() else []
     tables = write_report(rows, models, out / "report", visibility(out / "dataset", [s.scene_id for s in specs]))
