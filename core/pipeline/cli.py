@@ -120,7 +120,7 @@ def _register_validate(subparsers) -> None:
     v.add_argument("--suite-seeds", default="0,5", metavar="LIST",
                    help="initialisation seeds with --suite (default 0,5; seeds >= 5 are held out of tuning)")
     v.add_argument("--capture", default="", metavar="KINDS",
-                   help="with --suite: also run the capture-range levels (init ADD 5..60 mm) on these clip kinds")
+                   help="with --suite: also run the capture-range levels (init ADD 5..60 mm; PRJ 2..20 px at the paper's depth error) on these clip kinds")
     _common(v)
     v.set_defaults(func=_validate)
 
