@@ -171,7 +171,7 @@ def capture_table(rows: list[dict]) -> tuple[Table, dict]:
     """Share of poses refined to ADD < 2 mm per init level (mean initial ADD, PRJ), per clip kind.
 
     Two curves per kind: against the initial mean ADD (levels ``add<N>``, PRJ growing with it) and
-    against the initial mean PRJ at ADD 22.1 mm (levels ``prj<N>``); the paper's init is on both.
+    against the initial mean PRJ at the paper init's depth error (levels ``prj<N>``); the paper's init is on both.
     Returns (table, curves) with curves[axis][kind] = [(init ADD mm, init PRJ px, share), ...]."""
     clips = {r["clip"] for r in rows if _capture_axis(r["init"])}
     rows = [r for r in rows if r["clip"] in clips]          # the clips the levels were run on
@@ -200,7 +200,7 @@ def capture_table(rows: list[dict]) -> tuple[Table, dict]:
 
 def capture_png(curves: dict, path: Path) -> Path:
     """One panel per axis: share refined to ADD < 2 mm against the initial mean ADD (mm; PRJ grows
-    with it) and, if measured, against the initial mean PRJ (px; ADD held at 22.1 mm)."""
+    with it) and, if measured, against the initial mean PRJ (px; the paper init's depth error)."""
     plt = pyplot()
 
     axes = [a for a in ("add", "prj") if a in curves]
@@ -212,7 +212,7 @@ def capture_png(curves: dict, path: Path) -> Path:
                 pts = sorted(pts, key=lambda p: p[col])
                 ax.plot([p[col] for p in pts], [p[2] for p in pts], "o-", label=f"{k} clips")
         ax.set_xlabel("initial mean ADD (mm)  [PRJ = ADD x 5.2/22.1 px]" if a == "add"
-                      else "initial mean PRJ (px)  [ADD = 22.1 mm]")
+                      else "initial mean PRJ (px)  [depth error of the paper's init]")
         ax.set_ylabel("share refined to ADD < 2 mm")
         ax.set_ylim(0, 1.02)
         ax.grid(alpha=0.3)
