@@ -72,6 +72,7 @@ class RefineOptions:
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px (one viewpoint: (4, 2, 1)) scaled by width / 640
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
     nonkey_chunk: int = 40            # the camera-only frames are refined in chunks of this many (bounded memory)
+    nonkey_choose_init: bool = True   # a non-keyframe starts from its own init camera or the keyframes' interpolation, whichever fits the image's edges
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
     edge_norm_percentile: float = 100.0
@@ -489,15 +490,18 @@ def _bbox(mask: np.ndarray, margin: int) -> tuple[int, int, int, int]:
 
 
 def _refine_nonkey(views: list, models: dict, obj_ids: list, known: np.ndarray, T_c: np.ndarray, T_m: np.ndarray,
-                   nonkey: list[int], opt: RefineOptions, log: list, stats: dict, with_images) -> dict:
+                   nonkey: list[int], opt: RefineOptions, log: list, stats: dict, with_images,
+                   alt: dict | None = None) -> dict:
     """Camera-only refinement of the non-keyframes (objects fixed at their keyframe solution), in
     chunks of ``opt.nonkey_chunk`` consecutive frames: each chunk is a bundle of its frames (free
     cameras) and their temporal neighbours (fixed), with only those images in memory, so a video of
     any length runs in bounded memory. Returns T_c (n, 4, 4), converged, visible (view index,
     object index) pairs, per-camera covariances, last-iteration camera moves (mm, deg) and whether
-    a linear system stayed singular."""
+    a linear system stayed singular. ``alt``: other initial cameras to choose from per frame
+    (:func:`_choose_nonkey_cameras`)."""
     n = len(views)
     T_c = T_c.copy()
+    stats.setdefault("nonkey_switched", 0)
     out = {"converged": True, "visible": set(), "cam_cov": {}, "numerical_failure": False,
            "cam_move_mm": np.zeros(n), "cam_move_deg": np.zeros(n)}
     nk = sorted(nonkey)
@@ -508,6 +512,8 @@ def _refine_nonkey(views: list, models: dict, obj_ids: list, known: np.ndarray, 
         idx = sorted({i + d for i in chunk for d in range(-nb, nb + 1) if 0 <= i + d < n})
         local = {i: a for a, i in enumerate(idx)}
         with_images(idx)
+        if alt:
+            stats["nonkey_switched"] += _choose_nonkey_cameras(views, models, obj_ids, known, T_c, T_m, alt, chunk)
         free = np.array([i in set(chunk) for i in idx])
         pbc = BundleProblem([views[i] for i in idx], obj_ids, T_c[idx], T_m, cam_free=free,
                             obj_free=np.zeros(len(obj_ids), bool))
@@ -719,19 +725,55 @@ def _keyframe_covariances(pb: BundleProblem, cov_kf: np.ndarray | None, kf: list
 
 
 def _interpolate_nonkey_cameras(T_c: np.ndarray, T_c_init: np.ndarray, kf: list[int], nonkey: list[int],
-                                seen_views: set) -> None:
+                                seen_views: set) -> dict[int, np.ndarray]:
     """Initial cameras (4x4 mm, in place in T_c) of the non-keyframes between refined keyframes:
     the keyframe corrections carried over to the frame's own init camera when the frame had init
-    poses, else the keyframe cameras; SE(3)-interpolated by frame index."""
+    poses, else the keyframe cameras; SE(3)-interpolated by frame index. Returns, for the frames
+    that had init poses, the other candidate {view index: 4x4}: the keyframe cameras interpolated
+    (a frame's own init camera carries its init poses' independent error, which on a smooth video
+    path the interpolation does not; :func:`_choose_nonkey_cameras` keeps the one the image
+    supports)."""
+    alt: dict[int, np.ndarray] = {}
     for i in nonkey:
         a = max(k for k in kf if k < i)
         b = min(k for k in kf if k > i)
+        interp = interpolate_T(T_c[a], T_c[b], (i - a) / (b - a))
         if i in seen_views:
             pa = T_c_init[i] @ inv_T(T_c_init[a]) @ T_c[a]
             pb_ = T_c_init[i] @ inv_T(T_c_init[b]) @ T_c[b]
             T_c[i] = interpolate_T(pa, pb_, (i - a) / (b - a))
+            alt[i] = interp
         else:
-            T_c[i] = interpolate_T(T_c[a], T_c[b], (i - a) / (b - a))
+            T_c[i] = interp
+    return alt
+
+
+# a non-keyframe takes the interpolated camera when its objects' median contour offset is lower by this (px at 640 px)
+NONKEY_SWITCH_PX = 0.1
+
+
+def _choose_nonkey_cameras(views: list, models: dict, obj_ids: list, ok: np.ndarray, T_c: np.ndarray,
+                           T_m: np.ndarray, alt: dict[int, np.ndarray], frames: list[int], renderer=None) -> int:
+    """For each view index in ``frames`` with a candidate in ``alt`` (images loaded): keep, in place
+    in T_c, the camera under which the view's objects (fixed at T_m) sit closer to the image's
+    edges (median over objects of :func:`ycbvss.refine.confidence.contour_offset_px`); the
+    candidate must be better by ``NONKEY_SWITCH_PX``. Returns how many cameras were switched."""
+    renderer = renderer or get_renderer()
+    n_switch = 0
+    for i in frames:
+        if i not in alt:
+            continue
+        v = views[i]
+        med = []
+        for T in (T_c[i], alt[i]):
+            P = {(v.im_id, o): T @ T_m[j] for j, o in enumerate(obj_ids) if ok[j]}
+            d = _view_contour_offsets([v], models, obj_ids, ok, P, renderer)[0]
+            med.append(float(np.median(list(d.values()))) if d else float("nan"))
+        if np.isfinite(med[1]) and (not np.isfinite(med[0])
+                                    or med[1] < med[0] - NONKEY_SWITCH_PX * v.width / 640.0):
+            T_c[i] = alt[i]
+            n_switch += 1
+    return n_switch
 
 
 def _nonkey_moves(cam_move_mm: np.ndarray, cam_move_deg: np.ndarray, kf: list[int], nonkey: list[int],
@@ -959,8 +1001,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     nonkey = [i for i in range(n) if i not in set(kf)]
     num_fail = ks.stage.numerical_failure
     if nonkey and not opt.fix_cameras:
-        _interpolate_nonkey_cameras(T_c, T_c_init, kf, nonkey, {i for (i, _) in obs})
-        nk_res = _refine_nonkey(views, models, obj_ids, known, T_c, T_m, nonkey, opt, log, stats, imgs.keep)
+        alt = _interpolate_nonkey_cameras(T_c, T_c_init, kf, nonkey, {i for (i, _) in obs})
+        nk_res = _refine_nonkey(views, models, obj_ids, known, T_c, T_m, nonkey, opt, log, stats, imgs.keep,
+                                alt if opt.nonkey_choose_init else None)
         T_c = nk_res["T_c"]
         converged = converged and nk_res["converged"]
         visible |= {(views[i].im_id, obj_ids[j]) for (i, j) in nk_res["visible"]}
