@@ -73,6 +73,8 @@ def main(argv=None) -> int:
     print(f"frames {n}, objects {len(oids)}, {args.width}px, keyframe step {max(1, args.frames // args.keyframes)}")
     print(f"setup {t_setup:.1f} s; refine {wall:.1f} s wall = {wall / n:.3f} s/frame = "
           f"{wall / (n * len(oids)):.3f} s per frame*object; images rendered {imgs.n_rendered}")
+    print(f"of it choosing the non-keyframes' initial cameras {res.stats.get('nonkey_choose_s', 0.0):.1f} s "
+          f"({res.stats.get('nonkey_switched', 0)} switched to the keyframes' interpolation)")
     print(f"peak RSS {rss:.0f} MB (before refining {rss0:.0f} MB); median |t err| {np.median(err):.2f} mm; "
           f"statuses {{{', '.join(f'{s}: {sum(v == s for v in res.status.values())}' for s in ('converged', 'uncertain', 'failed'))}}}")
     return 0

@@ -513,7 +513,9 @@ def _refine_nonkey(views: list, models: dict, obj_ids: list, known: np.ndarray, 
         local = {i: a for a, i in enumerate(idx)}
         with_images(idx)
         if alt:
+            t0 = time.perf_counter()
             stats["nonkey_switched"] += _choose_nonkey_cameras(views, models, obj_ids, known, T_c, T_m, alt, chunk)
+            stats["nonkey_choose_s"] = stats.get("nonkey_choose_s", 0.0) + time.perf_counter() - t0
         free = np.array([i in set(chunk) for i in idx])
         pbc = BundleProblem([views[i] for i in idx], obj_ids, T_c[idx], T_m, cam_free=free,
                             obj_free=np.zeros(len(obj_ids), bool))
