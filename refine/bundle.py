@@ -547,10 +547,11 @@ def _id_list(ids: list[int]) -> str:
 
 
 def _view_contour_offsets(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict,
-                          renderer=None) -> dict[int, dict[int, float]]:
+                          renderer=None, image_mags: list | None = None) -> dict[int, dict[int, float]]:
     """Per view (its index in ``views``, whose images are loaded): obj_id -> offset (px) of the
     object's visible contour from the image's edges at the refined poses
-    (:func:`ycbvss.refine.confidence.contour_offset_px`; objects without a visible contour left out)."""
+    (:func:`ycbvss.refine.confidence.contour_offset_px`; objects without a visible contour left out).
+    ``image_mags``: the views' image gradient magnitudes (σ 1 px) when already computed."""
     renderer = renderer or get_renderer()
     out: dict[int, dict[int, float]] = {}
     for i, v in enumerate(views):
@@ -559,7 +560,7 @@ def _view_contour_offsets(views: list, models: dict, obj_ids: list, ok: np.ndarr
         if not P:
             continue
         vr = render_view(renderer, models, obj_ids, v.K, v.width, v.height, P)
-        mag = gradient_magnitude(v.image, 1.0)
+        mag = image_mags[i] if image_mags is not None else gradient_magnitude(v.image, 1.0)
         mag_t = gradient_magnitude(composite(vr, v.image), 1.0)
         for j in vr.obj_index:
             r = contour_offset_px(mag, mag_t, vr.instance, vr.depth_mm, vr.label_of(j))
@@ -766,10 +767,11 @@ def _choose_nonkey_cameras(views: list, models: dict, obj_ids: list, ok: np.ndar
         if i not in alt:
             continue
         v = views[i]
+        mag = [gradient_magnitude(v.image, 1.0)]          # one image, two candidate cameras
         med = []
         for T in (T_c[i], alt[i]):
             P = {(v.im_id, o): T @ T_m[j] for j, o in enumerate(obj_ids) if ok[j]}
-            d = _view_contour_offsets([v], models, obj_ids, ok, P, renderer)[0]
+            d = _view_contour_offsets([v], models, obj_ids, ok, P, renderer, mag)[0]
             med.append(float(np.median(list(d.values()))) if d else float("nan"))
         if np.isfinite(med[1]) and (not np.isfinite(med[0])
                                     or med[1] < med[0] - NONKEY_SWITCH_PX * v.width / 640.0):

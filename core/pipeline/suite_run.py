@@ -219,7 +219,7 @@ def read_rows(path: Path) -> list[dict]:
 
 
 CAPTURE_LEVELS = ("add5", "add10", "add22.1", "add40", "add60")
-# the PRJ axis of the capture range: mean ADD held at the paper's 22.1 mm
+# the PRJ axis of the capture range: the paper init's depth error held, the lateral/rotational part scaled (ADD grows)
 CAPTURE_PRJ_LEVELS = ("prj2", "prj10", "prj15", "prj20")
 
 
