@@ -28,6 +28,7 @@ from .solver import SolverOptions, covariance, run_lm
 from .templates import (composite, ensure_meshes, get_renderer, object_mask, render_view, select_edge_samples,
                         view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
+from .turn_check import best_turn, interior_ncc, turn_transforms
 from .confidence import calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_scale
 from .uncertainty import pose_sigmas
 
@@ -72,6 +73,7 @@ class RefineOptions:
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px (one viewpoint: (4, 2, 1)) scaled by width / 640
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
     nonkey_chunk: int = 40            # the camera-only frames are refined in chunks of this many (bounded memory)
+    turn_check: bool = True           # a pose that a turned copy of the object fits better inside its silhouette is uncertain (refine.turn_check)
     nonkey_choose_init: bool = True   # a non-keyframe starts from its own init camera or the keyframes' interpolation, whichever fits the image's edges
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
@@ -865,15 +867,17 @@ def _shift_from_init_px(models: dict, views: list, vidx: dict, obj_ids: list, gi
 
 def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, quality: dict, obj_move: tuple,
               cam_move: tuple, visible: set, failed: set, turned_deg: np.ndarray,
-              shift: tuple[np.ndarray, np.ndarray], view_contour_px: np.ndarray | None = None
-              ) -> tuple[dict, dict, dict]:
+              shift: tuple[np.ndarray, np.ndarray], view_contour_px: np.ndarray | None = None,
+              turn_gain: dict | None = None) -> tuple[dict, dict, dict]:
     """Status, confidence and reasons per pose (:func:`ycbvss.refine.confidence.classify`) from the
     calibrated sigmas, the contour quality, the last outer iteration's moves (mm, deg) of the
     pose's object and camera, the object's turn (deg) and its centre's shift and initial scatter (px,
     :func:`_shift_from_init_px`) from the initial poses; records each object's own last move and
     shift in ``quality``. ``view_contour_px`` (n,): the median contour offset of each view's objects;
-    a pose's contour counts as the larger of its object's (median over views) and its view's."""
+    a pose's contour counts as the larger of its object's (median over views) and its view's.
+    ``turn_gain``: obj_id -> (best gain, label) of :func:`_turn_gains`, recorded in ``quality``."""
     status, confidence, reasons = {}, {}, {}
+    turn_gain = turn_gain or {}
     for (im, oid), P in poses.items():
         i, j = vidx[im], obj_ids.index(oid)
         sp = sigma["poses"].get((im, oid))
@@ -885,12 +889,16 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
             c = max(c, float(view_contour_px[i])) if np.isfinite(c) else float(view_contour_px[i])
         ps = classify(c, sig, moved, observed=any(k[1] == oid for k in visible),
                       numerical_failure=(im, oid) in failed, width_px=views[i].width, turned_deg=turned_deg[j],
-                      shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width))
+                      shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width),
+                      turn_gain=turn_gain.get(oid, (float("nan"), ""))[0], turn_label=turn_gain.get(oid, (0, ""))[1])
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
         quality[oid].setdefault("shift_px", round(float(shift[0][j]), 2))
         quality[oid].setdefault("init_scatter_px", round(float(shift[1][j]), 2))
+        if oid in turn_gain:
+            quality[oid].setdefault("turn_gain_ncc", round(float(turn_gain[oid][0]), 4))
+            quality[oid].setdefault("turn_best", turn_gain[oid][1])
     return status, confidence, reasons
 
 
@@ -932,6 +940,48 @@ def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, 
     view_px = np.array([float(np.median(list(per_view[i].values()))) if per_view[i] else float("nan")
                         for i in range(n)])
     return quality, view_px
+
+
+def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, syms: list,
+                imgs: _SceneImages, n_views: int = 3) -> dict[int, tuple[float, str]]:
+    """Per object: the best gain (NCC) of a turned pose over the refined one and its label
+    (:mod:`ycbvss.refine.turn_check`), from up to ``n_views`` evenly spaced views; the turned object
+    is rendered with the others in place so they still occlude it."""
+    renderer = get_renderer()
+    n = len(views)
+    idx = [int(i) for i in np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))]
+    turns = {}
+    for j, o in enumerate(obj_ids):
+        if ok[j]:
+            V = models[o].vertices_mm if models[o].path is not None else np.asarray(models[o].mesh.vertices, np.float64)
+            # only the evaluation's symmetries (ADD-S objects) are skipped: a geometric symmetry of a
+            # textured object (the tuna can's axis) is no symmetry of its appearance
+            turns[j] = turn_transforms(bbox_center(V), syms[j] if models[o].symmetric else None)
+    base: dict[int, list] = {j: [] for j in turns}
+    alt: dict[int, dict[str, list]] = {j: {lab: [] for lab, _ in turns[j]} for j in turns}
+    imgs.keep(idx)
+    for i in idx:
+        v = views[i]
+        P = {j: poses[(v.im_id, obj_ids[j])] for j in turns if (v.im_id, obj_ids[j]) in poses}
+        if not P:
+            continue
+        mag = gradient_magnitude(v.image, 1.0)
+
+        def fit(vr, j):
+            m = vr.instance == vr.label_of(j)
+            y0, y1, x0, x1 = _bbox(m, 8)
+            mag_t = gradient_magnitude(composite(vr, v.image, (y0, y1, x0, x1)), 1.0)
+            return interior_ncc(mag[y0:y1, x0:x1], mag_t, m[y0:y1, x0:x1])
+
+        vr0 = render_view(renderer, models, obj_ids, v.K, v.width, v.height, P)
+        for j in P:
+            base[j].append(fit(vr0, j))
+            for lab, A in turns[j]:
+                PP = dict(P)
+                PP[j] = P[j] @ A
+                alt[j][lab].append(fit(render_view(renderer, models, obj_ids, v.K, v.width, v.height, PP), j))
+    imgs.keep([])
+    return {obj_ids[j]: best_turn(base[j], alt[j]) for j in turns}
 
 
 @dataclass
@@ -1024,12 +1074,14 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     t0 = time.perf_counter()
     quality, view_px = _quality_on_views(views, models, obj_ids, known & ~bad_obj, poses, opt, imgs)
     stats["view_contour_px"] = [round(float(x), 3) for x in view_px]
+    turn_gain = (_turn_gains(views, models, obj_ids, known & ~bad_obj, poses, syms, imgs)
+                 if opt.turn_check else {})
     stats["confidence_s"] = time.perf_counter() - t0
     status, confidence, reasons = _statuses(poses, views, vidx, obj_ids, sigma, quality, ks.stage.obj_move,
                                             (cam_move_mm, cam_move_deg), visible, failed,
                                             _turn_from_init_deg(syms, pb0.T_m, T_m),
                                             _shift_from_init_px(models, views, vidx, obj_ids, init, init_poses, poses),
-                                            view_px)
+                                            view_px, turn_gain)
     stats["total_s"] = time.perf_counter() - t_start
     stats.update({k: round(v, 4) for k, v in stats.items() if isinstance(v, float)})
     return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n) if not bad_cam[i]},
