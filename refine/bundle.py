@@ -7,7 +7,7 @@ import os
 import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -29,7 +29,7 @@ from .templates import (composite, ensure_meshes, get_renderer, object_mask, ren
                         view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_ncc, turn_transforms
-from .confidence import calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_scale
+from .confidence import TURN_GAIN_FLAG, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_scale
 from .uncertainty import pose_sigmas
 
 
@@ -73,6 +73,7 @@ class RefineOptions:
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px (one viewpoint: (4, 2, 1)) scaled by width / 640
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
     nonkey_chunk: int = 40            # the camera-only frames are refined in chunks of this many (bounded memory)
+    turn_restart: bool = True         # ... and the scene is refined once more from that copy (kept if it fits better)
     turn_check: bool = True           # a pose that a turned copy of the object fits better inside its silhouette is uncertain (refine.turn_check)
     nonkey_choose_init: bool = True   # a non-keyframe starts from its own init camera or the keyframes' interpolation, whichever fits the image's edges
     n_edge_points: int = 1000
@@ -875,7 +876,8 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
     :func:`_shift_from_init_px`) from the initial poses; records each object's own last move and
     shift in ``quality``. ``view_contour_px`` (n,): the median contour offset of each view's objects;
     a pose's contour counts as the larger of its object's (median over views) and its view's.
-    ``turn_gain``: obj_id -> (best gain, label) of :func:`_turn_gains`, recorded in ``quality``."""
+    ``turn_gain``: obj_id -> (best gain, label, transform, interior NCC) of :func:`_turn_gains`,
+    recorded in ``quality``."""
     status, confidence, reasons = {}, {}, {}
     turn_gain = turn_gain or {}
     for (im, oid), P in poses.items():
@@ -890,7 +892,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
         ps = classify(c, sig, moved, observed=any(k[1] == oid for k in visible),
                       numerical_failure=(im, oid) in failed, width_px=views[i].width, turned_deg=turned_deg[j],
                       shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width),
-                      turn_gain=turn_gain.get(oid, (float("nan"), ""))[0], turn_label=turn_gain.get(oid, (0, ""))[1])
+                      turn_gain=turn_gain.get(oid, (float("nan"),))[0], turn_label=turn_gain.get(oid, (0, ""))[1])
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
@@ -899,6 +901,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
         if oid in turn_gain:
             quality[oid].setdefault("turn_gain_ncc", round(float(turn_gain[oid][0]), 4))
             quality[oid].setdefault("turn_best", turn_gain[oid][1])
+            quality[oid].setdefault("interior_ncc", round(float(turn_gain[oid][3]), 4))
     return status, confidence, reasons
 
 
@@ -944,8 +947,8 @@ def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, 
 
 def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, syms: list,
                 imgs: _SceneImages, n_views: int = 3) -> dict[int, tuple[float, str]]:
-    """Per object: the best gain (NCC) of a turned pose over the refined one and its label
-    (:mod:`ycbvss.refine.turn_check`), from up to ``n_views`` evenly spaced views; the turned object
+    """Per object: the best gain (NCC) of a turned pose over the refined one, its label, its
+    model-frame transform and the refined pose's own mean interior NCC (:mod:`ycbvss.refine.turn_check`), from up to ``n_views`` evenly spaced views; the turned object
     is rendered with the others in place so they still occlude it."""
     renderer = get_renderer()
     n = len(views)
@@ -981,7 +984,13 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
                 PP[j] = P[j] @ A
                 alt[j][lab].append(fit(render_view(renderer, models, obj_ids, v.K, v.width, v.height, PP), j))
     imgs.keep([])
-    return {obj_ids[j]: best_turn(base[j], alt[j]) for j in turns}
+    out = {}
+    for j in turns:
+        gain, lab = best_turn(base[j], alt[j])
+        b = np.asarray(base[j], float)
+        out[obj_ids[j]] = (gain, lab, dict(turns[j]).get(lab),
+                           float(np.mean(b[np.isfinite(b)])) if np.isfinite(b).any() else float("nan"))
+    return out
 
 
 @dataclass
@@ -1033,9 +1042,42 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     ``scene``: :class:`ycbvss.scene.Scene` (frames with cameras); ``models``: obj_id -> ObjectModel;
     ``init``: {(im_id, obj_id): 4x4 mm object-to-camera}, may miss pairs; invalid ones (NaN, not a
     rotation, behind the camera) are dropped with a warning. ``images``: im_id -> HxWx3 uint8
-    (default: ``frame.load_rgb()``). Stages: observations -> scene-consistent init -> keyframe
-    bundle (coarse to fine) -> camera-only non-keyframes -> poses, sigmas, status."""
+    (default: ``frame.load_rgb()``). Stages (:func:`_refine_scene_once`): observations ->
+    scene-consistent init -> keyframe bundle (coarse to fine) -> camera-only non-keyframes -> poses,
+    sigmas, status. Restarted once when
+    the turned-copy check finds an object that a turned copy fits better
+    (``RefineOptions.turn_restart``): every object then starts from its refined pose, those objects
+    from their better-fitting turned copies. The restart is kept when none of them still has a
+    better turned copy and each fits its interior texture better than before; otherwise the first
+    result stands (its poses flagged ``uncertain``). ``stats["turn_restart"]`` records what happened."""
     opt = options or RefineOptions()
+    res = _refine_scene_once(scene, models, init, opt, images)
+    A = res.stats.pop("_turn_transforms", {})
+    flagged = {o: q for o, q in res.quality.items() if q.get("turn_gain_ncc", float("nan")) > TURN_GAIN_FLAG}
+    if not (opt.turn_check and opt.turn_restart and flagged):
+        return res
+    init2 = {k: (T @ A[k[1]] if k[1] in flagged else T.copy()) for k, T in res.poses.items()}
+    res2 = _refine_scene_once(scene, models, init2, replace(opt, turn_restart=False), images)
+    res2.stats.pop("_turn_transforms", None)
+    keep = all(res2.quality.get(o, {}).get("turn_gain_ncc", float("inf")) <= TURN_GAIN_FLAG
+               and res2.quality[o].get("interior_ncc", -1.0) > q.get("interior_ncc", 1.0) for o, q in flagged.items())
+    note = {str(o): {"turn": q["turn_best"], "gain_ncc": q["turn_gain_ncc"],
+                     "after_gain_ncc": res2.quality.get(o, {}).get("turn_gain_ncc"), "kept": keep} for o, q in flagged.items()}
+    msg = (f"restarted {_id_list(sorted(flagged))} from turned copies: "
+           + ("kept (no better turn left)" if keep else "not kept (a turned copy still fits better), first result stands"))
+    if not keep:
+        res.stats["turn_restart"] = note
+        res.log.append(msg)
+        return res
+    res2.stats["turn_restart"] = note
+    res2.stats["total_s"] = round(res.stats["total_s"] + res2.stats["total_s"], 4)
+    res2.init_poses = res.init_poses
+    res2.log = res.log + [msg] + res2.log
+    return res2
+
+
+def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, images: dict | None) -> RefineResult:
+    """One pass of :func:`refine_scene` (no restart)."""
     t_start = time.perf_counter()
     frames, views, imgs, vidx = _scene_views(scene, images)
     obs, obj_ids, missing = _observations(scene, models, init, vidx, frames)
@@ -1076,6 +1118,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     stats["view_contour_px"] = [round(float(x), 3) for x in view_px]
     turn_gain = (_turn_gains(views, models, obj_ids, known & ~bad_obj, poses, syms, imgs)
                  if opt.turn_check else {})
+    stats["_turn_transforms"] = {o: g[2] for o, g in turn_gain.items()}
     stats["confidence_s"] = time.perf_counter() - t0
     status, confidence, reasons = _statuses(poses, views, vidx, obj_ids, sigma, quality, ks.stage.obj_move,
                                             (cam_move_mm, cam_move_deg), visible, failed,
