@@ -7,7 +7,7 @@ import os
 import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,11 +25,11 @@ from .matching import (FlowOptions, dense_flow_pair, flow_matches, min_eig_map, 
                        residual_flow_pair)
 from .problem import BundleProblem, View
 from .solver import SolverOptions, covariance, run_lm
-from .templates import (composite, ensure_meshes, get_renderer, object_mask, render_view, select_edge_samples,
+from .templates import (composite, ensure_meshes, get_renderer, mesh_key, object_mask, render_view, select_edge_samples,
                         view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
-from .turn_check import best_turn, interior_ncc, turn_transforms
-from .confidence import TURN_GAIN_FLAG, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_scale
+from .turn_check import best_turn, interior_ncc, turn_transforms, turned_wrong
+from .confidence import calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_scale
 from .uncertainty import pose_sigmas
 
 
@@ -73,8 +73,8 @@ class RefineOptions:
     edge_sigmas_px: tuple[float, ...] | None = None     # None: (8, 4, 2, 1) px (one viewpoint: (4, 2, 1)) scaled by width / 640
     nonkey_sigmas_px: tuple[float, ...] | None = None   # None: (4, 2, 1) px scaled likewise
     nonkey_chunk: int = 40            # the camera-only frames are refined in chunks of this many (bounded memory)
-    turn_restart: bool = True         # ... and the scene is refined once more from that copy (kept if it fits better)
     turn_check: bool = True           # a pose that a turned copy of the object fits better inside its silhouette is uncertain (refine.turn_check)
+    turn_restart: bool = True         # ... and the scene is refined once more from that copy (kept if it fits better)
     nonkey_choose_init: bool = True   # a non-keyframe starts from its own init camera or the keyframes' interpolation, whichever fits the image's edges
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0
@@ -876,7 +876,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
     :func:`_shift_from_init_px`) from the initial poses; records each object's own last move and
     shift in ``quality``. ``view_contour_px`` (n,): the median contour offset of each view's objects;
     a pose's contour counts as the larger of its object's (median over views) and its view's.
-    ``turn_gain``: obj_id -> (best gain, label, transform, interior NCC) of :func:`_turn_gains`,
+    ``turn_gain``: obj_id -> (best gain, label, transform, interior NCC, turned NCC) of :func:`_turn_gains`,
     recorded in ``quality``."""
     status, confidence, reasons = {}, {}, {}
     turn_gain = turn_gain or {}
@@ -892,7 +892,8 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
         ps = classify(c, sig, moved, observed=any(k[1] == oid for k in visible),
                       numerical_failure=(im, oid) in failed, width_px=views[i].width, turned_deg=turned_deg[j],
                       shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width),
-                      turn_gain=turn_gain.get(oid, (float("nan"),))[0], turn_label=turn_gain.get(oid, (0, ""))[1])
+                      turn_gain=turn_gain.get(oid, (float("nan"),))[0], turn_label=turn_gain.get(oid, (0, ""))[1],
+                      turn_fit=turn_gain.get(oid, (0,) * 5)[4] if oid in turn_gain else float("nan"))
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
@@ -902,6 +903,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
             quality[oid].setdefault("turn_gain_ncc", round(float(turn_gain[oid][0]), 4))
             quality[oid].setdefault("turn_best", turn_gain[oid][1])
             quality[oid].setdefault("interior_ncc", round(float(turn_gain[oid][3]), 4))
+            quality[oid].setdefault("turn_fit_ncc", round(float(turn_gain[oid][4]), 4))
     return status, confidence, reasons
 
 
@@ -946,51 +948,90 @@ def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, 
 
 
 def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, syms: list,
-                imgs: _SceneImages, n_views: int = 3) -> dict[int, tuple[float, str]]:
+                imgs: _SceneImages, n_views: int = 3) -> dict[int, tuple]:
     """Per object: the best gain (NCC) of a turned pose over the refined one, its label, its
-    model-frame transform and the refined pose's own mean interior NCC (:mod:`ycbvss.refine.turn_check`), from up to ``n_views`` evenly spaced views; the turned object
-    is rendered with the others in place so they still occlude it."""
+    model-frame transform (None when no turn was measured), the refined pose's own mean interior
+    NCC and the turned pose's (:mod:`ycbvss.refine.turn_check`), from up to ``n_views`` evenly spaced views. Each object
+    is rendered, refined and turned, with the others in place so they still occlude it, in a window
+    around its bounding sphere only (the turns are about the sphere's centre, so it holds them all;
+    the window's size is rounded up to 32 px so the renderer reuses its buffers)."""
     renderer = get_renderer()
     n = len(views)
     idx = [int(i) for i in np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))]
-    turns = {}
+    turns, sphere = {}, {}
     for j, o in enumerate(obj_ids):
         if ok[j]:
             V = models[o].vertices_mm if models[o].path is not None else np.asarray(models[o].mesh.vertices, np.float64)
+            c = bbox_center(V)
+            sphere[j] = (c, float(np.linalg.norm(V - c, axis=1).max()))
             # only the evaluation's symmetries (ADD-S objects) are skipped: a geometric symmetry of a
             # textured object (the tuna can's axis) is no symmetry of its appearance
-            turns[j] = turn_transforms(bbox_center(V), syms[j] if models[o].symmetric else None)
+            turns[j] = turn_transforms(c, syms[j] if models[o].symmetric else None)
     base: dict[int, list] = {j: [] for j in turns}
     alt: dict[int, dict[str, list]] = {j: {lab: [] for lab, _ in turns[j]} for j in turns}
     imgs.keep(idx)
     for i in idx:
         v = views[i]
         P = {j: poses[(v.im_id, obj_ids[j])] for j in turns if (v.im_id, obj_ids[j]) in poses}
+        P = {j: T for j, T in P.items() if np.isfinite(T).all() and T[2, 3] > 10.0}
         if not P:
             continue
         mag = gradient_magnitude(v.image, 1.0)
-
-        def fit(vr, j):
-            m = vr.instance == vr.label_of(j)
-            y0, y1, x0, x1 = _bbox(m, 8)
-            mag_t = gradient_magnitude(composite(vr, v.image, (y0, y1, x0, x1)), 1.0)
-            return interior_ncc(mag[y0:y1, x0:x1], mag_t, m[y0:y1, x0:x1])
-
-        vr0 = render_view(renderer, models, obj_ids, v.K, v.width, v.height, P)
         for j in P:
-            base[j].append(fit(vr0, j))
+            box = _sphere_window(v, P[j], *sphere[j])
+            if box is None:
+                continue
+            y0, y1, x0, x1 = box
+            K = v.K.copy()
+            K[0, 2] -= x0
+            K[1, 2] -= y0
+            others = [(mesh_key(obj_ids[k], models[obj_ids[k]]), T) for k, T in P.items() if k != j]
+            key = mesh_key(obj_ids[j], models[obj_ids[j]])
+            crop, mag_c = v.image[y0:y1, x0:x1], mag[y0:y1, x0:x1]
+
+            def fit(T):
+                out = renderer.render(K, x1 - x0, y1 - y0, [(key, T)] + others, outputs=("instance", "color"))
+                m = out.instance == 1
+                tmpl = crop.copy()
+                np.copyto(tmpl, out.color, where=(out.instance > 0)[..., None])
+                return interior_ncc(mag_c, gradient_magnitude(tmpl, 1.0), m)
+
+            base[j].append(fit(P[j]))
             for lab, A in turns[j]:
-                PP = dict(P)
-                PP[j] = P[j] @ A
-                alt[j][lab].append(fit(render_view(renderer, models, obj_ids, v.K, v.width, v.height, PP), j))
+                alt[j][lab].append(fit(P[j] @ A))
     imgs.keep([])
     out = {}
     for j in turns:
-        gain, lab = best_turn(base[j], alt[j])
+        gain, lab, fit = best_turn(base[j], alt[j])
         b = np.asarray(base[j], float)
         out[obj_ids[j]] = (gain, lab, dict(turns[j]).get(lab),
-                           float(np.mean(b[np.isfinite(b)])) if np.isfinite(b).any() else float("nan"))
+                           float(np.mean(b[np.isfinite(b)])) if np.isfinite(b).any() else float("nan"), fit)
     return out
+
+
+def _sphere_window(view, T: np.ndarray, centre_mm: np.ndarray, radius_mm: float, margin_px: int = 8,
+                   step_px: int = 32) -> tuple[int, int, int, int] | None:
+    """Pixel window (y0, y1, x0, x1) of ``view`` that holds the projection of the sphere (model
+    frame centre, radius, mm) at pose ``T`` plus ``margin_px``, its size rounded up to ``step_px``
+    (within the image); None when the sphere reaches behind the camera or misses the image."""
+    c = T[:3, :3] @ centre_mm + T[:3, 3]
+    if c[2] <= radius_mm * 1.05:
+        return None
+    K = view.K
+    half = radius_mm / np.sqrt(c[2] ** 2 - radius_mm ** 2)       # tangent of the sphere's half-angle
+    u, w = K[0, 0] * c[0] / c[2] + K[0, 2], K[1, 1] * c[1] / c[2] + K[1, 2]
+    # half-extent of the projected sphere, generously for off-axis positions
+    hu = K[0, 0] * half * (1.0 + abs(c[0]) / c[2]) * 1.1 + margin_px
+    hv = K[1, 1] * half * (1.0 + abs(c[1]) / c[2]) * 1.1 + margin_px
+    W, H = view.width, view.height
+    x0, x1 = int(max(np.floor(u - hu), 0)), int(min(np.ceil(u + hu), W))
+    y0, y1 = int(max(np.floor(w - hv), 0)), int(min(np.ceil(w + hv), H))
+    if x1 - x0 < 8 or y1 - y0 < 8:
+        return None
+    sw, sh = min(-(-(x1 - x0) // step_px) * step_px, W), min(-(-(y1 - y0) // step_px) * step_px, H)
+    x0, y0 = min(x0, W - sw), min(y0, H - sh)
+    x1, y1 = x0 + sw, y0 + sh
+    return y0, y1, x0, x1
 
 
 @dataclass
@@ -1044,36 +1085,60 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     rotation, behind the camera) are dropped with a warning. ``images``: im_id -> HxWx3 uint8
     (default: ``frame.load_rgb()``). Stages (:func:`_refine_scene_once`): observations ->
     scene-consistent init -> keyframe bundle (coarse to fine) -> camera-only non-keyframes -> poses,
-    sigmas, status. Restarted once when
-    the turned-copy check finds an object that a turned copy fits better
-    (``RefineOptions.turn_restart``): every object then starts from its refined pose, those objects
-    from their better-fitting turned copies. The restart is kept when none of them still has a
-    better turned copy and each fits its interior texture better than before; otherwise the first
-    result stands (its poses flagged ``uncertain``). ``stats["turn_restart"]`` records what happened."""
+    sigmas, status.
+
+    Restarted once when the turned-copy check (:mod:`ycbvss.refine.turn_check`) finds objects that a
+    turned copy fits better (``RefineOptions.turn_restart``): those objects then start from their
+    refined poses turned that way, the others from their initial poses again. The restart is kept
+    when none of those objects still has a better turned copy and each fits its interior texture
+    better than before; otherwise the first result stands (those poses ``uncertain``).
+    ``stats["turn_restart"]`` records what happened."""
     opt = options or RefineOptions()
-    res = _refine_scene_once(scene, models, init, opt, images)
-    A = res.stats.pop("_turn_transforms", {})
-    flagged = {o: q for o, q in res.quality.items() if q.get("turn_gain_ncc", float("nan")) > TURN_GAIN_FLAG}
-    if not (opt.turn_check and opt.turn_restart and flagged):
+    if not (opt.turn_check and opt.turn_restart):
+        res = _refine_scene_once(scene, models, init, opt, images)
+        res.stats.pop("_turn_transforms", None)
         return res
-    init2 = {k: (T @ A[k[1]] if k[1] in flagged else T.copy()) for k, T in res.poses.items()}
-    res2 = _refine_scene_once(scene, models, init2, replace(opt, turn_restart=False), images)
+    # the warnings of a pass are held back until it is known which pass's result is returned, so
+    # each problem is reported once, by the result it belongs to
+    with warnings.catch_warnings(record=True) as w1:
+        warnings.simplefilter("always")
+        res = _refine_scene_once(scene, models, init, opt, images)
+    A = res.stats.pop("_turn_transforms", {})
+    flagged = {o: q for o, q in res.quality.items()
+               if turned_wrong(q.get("turn_gain_ncc", float("nan")), q.get("turn_fit_ncc", float("nan")))}
+    if not flagged:
+        _replay(w1)
+        return res
+    init2 = {k: T for k, T in init.items() if k[1] not in flagged}
+    init2.update({k: T @ A[k[1]] for k, T in res.poses.items() if k[1] in flagged and np.isfinite(T).all()})
+    with warnings.catch_warnings(record=True) as w2:
+        warnings.simplefilter("always")
+        res2 = _refine_scene_once(scene, models, init2, opt, images)
     res2.stats.pop("_turn_transforms", None)
-    keep = all(res2.quality.get(o, {}).get("turn_gain_ncc", float("inf")) <= TURN_GAIN_FLAG
+    keep = all(o in res2.quality and not turned_wrong(res2.quality[o].get("turn_gain_ncc", float("nan")),
+                                                      res2.quality[o].get("turn_fit_ncc", float("nan")))
                and res2.quality[o].get("interior_ncc", -1.0) > q.get("interior_ncc", 1.0) for o, q in flagged.items())
     note = {str(o): {"turn": q["turn_best"], "gain_ncc": q["turn_gain_ncc"],
                      "after_gain_ncc": res2.quality.get(o, {}).get("turn_gain_ncc"), "kept": keep} for o, q in flagged.items()}
     msg = (f"restarted {_id_list(sorted(flagged))} from turned copies: "
            + ("kept (no better turn left)" if keep else "not kept (a turned copy still fits better), first result stands"))
     if not keep:
+        _replay(w1)
         res.stats["turn_restart"] = note
         res.log.append(msg)
         return res
+    _replay(w2)
     res2.stats["turn_restart"] = note
     res2.stats["total_s"] = round(res.stats["total_s"] + res2.stats["total_s"], 4)
     res2.init_poses = res.init_poses
     res2.log = res.log + [msg] + res2.log
     return res2
+
+
+def _replay(caught: list) -> None:
+    """Issue again warnings caught by ``warnings.catch_warnings(record=True)`` (the caller's filters apply)."""
+    for x in caught:
+        warnings.warn_explicit(x.message, x.category, x.filename, x.lineno, source=x.source)
 
 
 def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, images: dict | None) -> RefineResult:

@@ -27,7 +27,7 @@ image edges (``contour_px > FAIL_PX``; both px thresholds are for 640-px-wide im
 and scale with the width); ``uncertain`` when the contour is loose (``> OK_PX``), the calibrated
 ``sigma_add_mm`` exceeds ``SIGMA_OK_MM``, the object turned more than ``MAX_TURN_DEG`` from its
 initial pose (modulo symmetries), a copy of it turned 20-40 deg about a model axis fits the texture
-inside its silhouette better (``TURN_GAIN_FLAG``), or its projected centre moved farther from the initial poses' than
+inside its silhouette better (:func:`ycbvss.refine.turn_check.turned_wrong`), or its projected centre moved farther from the initial poses' than
 :func:`shift_limit_px` allows (median over views), the pose was still
 moving, or the object had no image terms; ``converged`` otherwise. ``converged`` therefore means:
 the pose stopped (last outer step below ``MOVE_TOL_MM`` / ``MOVE_TOL_DEG``), its silhouette lies on
@@ -43,6 +43,8 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
+from .turn_check import turned_wrong
 
 CONTOUR_TRUNC_PX = 3.0
 OK_PX = 1.0             # contour thresholds at REF_WIDTH_PX; scaled with the image width
@@ -62,10 +64,6 @@ MAX_TURN_DEG = 20.0
 # initial scatter 4 px), its silhouette fitting to 0.37 px, and was reported converged. Correct poses
 # move 2-5 px from the paper's initial error.
 MAX_SHIFT_PX = 15.0
-# A turned copy of the object that fits the texture inside its silhouette better than the refined
-# pose by more than this (NCC of edge strength, :mod:`ycbvss.refine.turn_check`): the pose is turned wrong
-# (a bottle 40 deg about its axis shows the same outline).
-TURN_GAIN_FLAG = 0.05
 SHIFT_SCATTER_K = 3.0
 SIGMA_OK_MM = 2.0
 CONF_SIGMA_MM = 4.0
@@ -211,7 +209,7 @@ class PoseStatus:
 def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, observed: bool,
              numerical_failure: bool = False, width_px: int = REF_WIDTH_PX, turned_deg: float = 0.0,
              shifted_px: float = 0.0, shift_limit_px: float = float("inf"), turn_gain: float = float("nan"),
-             turn_label: str = "") -> PoseStatus:
+             turn_fit: float = float("nan"), turn_label: str = "") -> PoseStatus:
     """Status and confidence of one pose (see the module docstring for the rules). ``contour_px``
     is measured in an image ``width_px`` wide; the thresholds ``OK_PX`` / ``FAIL_PX`` hold at
     ``REF_WIDTH_PX`` (YCB-V's 640 px) and scale with the width, so an offset means the same
@@ -241,8 +239,9 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
     if shifted_px > shift_limit_px:
         reasons.append(f"projection moved {shifted_px:.0f} px from its initial poses' (limit {shift_limit_px:.0f} px)")
         conf *= 0.5
-    if np.isfinite(turn_gain) and turn_gain > TURN_GAIN_FLAG:
-        reasons.append(f"the object turned {turn_label} fits the texture inside its silhouette better (NCC +{turn_gain:.2f})")
+    if turned_wrong(turn_gain, turn_fit):
+        reasons.append(f"the object turned {turn_label} fits the texture inside its silhouette better "
+                       f"(NCC {turn_fit:.2f}, +{turn_gain:.2f})")
         conf *= 0.5
     if np.isfinite(contour_px) and contour_px > fail_px:
         return PoseStatus("failed", min(conf, 0.1), f"contour {contour_px:.2f} px off the image edges")

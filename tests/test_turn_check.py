@@ -6,8 +6,9 @@ import numpy as np
 
 from ycbvss.geometry.so3 import rotation_angle_deg
 from ycbvss.geometry.symmetry import symmetry_group
-from ycbvss.refine.confidence import TURN_GAIN_FLAG, classify
-from ycbvss.refine.turn_check import TURNS_DEG, best_turn, interior_mask, interior_ncc, turn_transforms
+from ycbvss.refine.confidence import classify
+from ycbvss.refine.turn_check import (FIT_MIN, GAIN_MIN, TURNS_DEG, best_turn, interior_mask, interior_ncc,
+                                      turn_transforms, turned_wrong)
 
 
 def test_turns_cover_three_axes_and_skip_only_equivalent_ones():
@@ -45,18 +46,22 @@ def test_interior_ncc_ignores_the_silhouette_edge_and_sees_a_shifted_texture():
 
 
 def test_best_turn_averages_over_views_where_both_are_defined():
-    gain, lab = best_turn([0.4, 0.5, np.nan], {"a": [0.2, 0.3, 0.9], "b": [0.8, np.nan, 0.1]})
-    assert lab == "b" and abs(gain - 0.4) < 1e-12
-    gain, lab = best_turn([np.nan], {"a": [0.3]})
-    assert np.isnan(gain) and lab == ""
+    gain, lab, fit = best_turn([0.4, 0.5, np.nan], {"a": [0.2, 0.3, 0.9], "b": [0.8, np.nan, 0.1]})
+    assert lab == "b" and abs(gain - 0.4) < 1e-12 and abs(fit - 0.8) < 1e-12
+    gain, lab, fit = best_turn([np.nan], {"a": [0.3]})
+    assert np.isnan(gain) and lab == "" and np.isnan(fit)
 
 
 def test_a_pose_a_turned_copy_fits_better_is_uncertain():
     # measured on the suite (short clips 5 and 8 from PRJ 20 px): the tuna can ended 40 deg off about
     # its axis, silhouette 0.2-0.4 px off, and a copy turned back fitted the texture 0.34 NCC better
-    bad = classify(0.36, 0.5, 0.0, True, turn_gain=0.34, turn_label="-40 deg about model z")
+    bad = classify(0.36, 0.5, 0.0, True, turn_gain=0.34, turn_fit=0.54, turn_label="-40 deg about model z")
     assert bad.status == "uncertain" and "-40 deg about model z" in bad.reason and bad.confidence < 0.5
-    # correct poses on the suite: every turned copy fitted at least 0.26 worse
-    assert classify(0.36, 0.5, 0.0, True, turn_gain=-0.26).status == "converged"
-    assert classify(0.36, 0.5, 0.0, True, turn_gain=TURN_GAIN_FLAG - 0.01).status == "converged"
+    # correct poses on the suite: every turned copy fitted at least 0.24 worse
+    assert classify(0.36, 0.5, 0.0, True, turn_gain=-0.26, turn_fit=0.6).status == "converged"
+    assert classify(0.36, 0.5, 0.0, True, turn_gain=GAIN_MIN - 0.01, turn_fit=0.6).status == "converged"
     assert classify(0.36, 0.5, 0.0, True, turn_gain=float("nan")).status == "converged"
+    # no texture, no evidence: a plain procedural cylinder at its exact pose fits with NCC 0.00 and a
+    # turned copy 0.16 better by chance
+    assert classify(0.36, 0.5, 0.0, True, turn_gain=0.16, turn_fit=0.12).status == "converged"
+    assert turned_wrong(0.34, 0.54) and not turned_wrong(0.34, FIT_MIN - 0.01) and not turned_wrong(GAIN_MIN, 0.9)
