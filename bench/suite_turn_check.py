@@ -31,11 +31,11 @@ MODES = {"off": {"turn_check": False}, "flag": {"turn_restart": False}, "restart
 COLUMNS = ["poses", "ADD<2mm", "ADD>10mm", "ADD>10mm converged (silent)", "converged", "tz (mm)", "R (deg)"]
 
 
-def turn_table(by_mode: dict[str, list[dict]], inits: list[str]) -> Table:
-    """One row per (mode, init): columns :data:`COLUMNS` (shares in [0, 1], means over poses)."""
+def turn_table(by_mode: dict[str, list[dict]], inits: list[str], what: str) -> Table:
+    """One row per (mode, init): columns :data:`COLUMNS` (shares in [0, 1], means over poses);
+    ``what`` names the clips and seeds in the caption."""
     t = Table(columns=COLUMNS, label_header="mode / init", digits=3,
-              caption="Turned-copy texture check on suite clips (short clips of scenes 4-9, seed 0; scenes 8, 9 "
-                      "held out): off / flag (the default) / flag + restart. "
+              caption=f"Turned-copy texture check on {what}: off / flag (the default) / flag + restart. "
                       "Silent = poses with ADD > 10 mm reported `converged`.")
     first = True
     for mode, rows in by_mode.items():
@@ -64,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--modes", default="off,flag,restart", help=f"comma list of {', '.join(MODES)}")
     ap.add_argument("--work", required=True, help="per-mode run folders (rows.csv, done/)")
     ap.add_argument("--out", required=True, help="tables folder")
+    ap.add_argument("--tag", default="", help="suffix of the table file names (e.g. _seed5)")
     a = ap.parse_args(argv)
     scenes = [int(s) for s in a.scenes.split(",")]
     inits = a.inits.split(",")
@@ -79,13 +80,16 @@ def main(argv: list[str] | None = None) -> int:
         keys = {(r.clip.name, r.init, r.seed) for r in runs}
         by_mode[mode] = [r for r in read_rows(rows_path) if (r["clip"], r["init"], r["seed"]) in keys]
     out = Path(a.out)
-    write_table(turn_table(by_mode, inits), out, "turn_check")
+    held = sorted({r.clip.name for r in runs if r.clip.held_out})
+    what = (f"clips {', '.join(sorted({r.clip.name for r in runs}))}, seeds {a.seeds}"
+            + (f" (held out: {', '.join(held)}" + (", and every seed >= 5)" if max(seeds) >= 5 else ")") if held else ""))
+    write_table(turn_table(by_mode, inits, what), out, f"turn_check{a.tag}")
     cap = "flag" if "flag" in modes else modes[-1]
     t, curves = capture_table(by_mode[cap])
     t.caption = (f"Capture range with the turned-copy check ({cap}), clips "
                  f"{', '.join(sorted({r.clip.name for r in runs}))}, seeds {a.seeds}: share of poses refined to ADD < 2 mm")
-    write_table(t, out, "capture_prj_turn")
-    capture_png(curves, out / "capture_prj_turn.png")
+    write_table(t, out, f"capture_prj_turn{a.tag}")
+    capture_png(curves, out / f"capture_prj_turn{a.tag}.png")
     return 0
 
 
