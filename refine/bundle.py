@@ -878,7 +878,8 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
     pose's object and camera, the object's turn (deg) and its centre's shift and initial scatter (px,
     :func:`_shift_from_init_px`) from the initial poses; records each object's own last move and
     shift in ``quality``. ``view_contour_px`` (n,): the median contour offset of each view's objects;
-    a pose's contour counts as the larger of its object's (median over views) and its view's.
+    a pose's contour counts as the larger of its object's (median over views) and its view's; an
+    object without a visible contour of its own stays unverified (its view's offset can only fail it).
     ``turn_gain``: obj_id -> (best gain, label, transform, interior NCC, turned NCC) of :func:`_turn_gains`,
     recorded in ``quality``."""
     status, confidence, reasons = {}, {}, {}
@@ -890,9 +891,10 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
         moved = (float(obj_move[0][j]) + float(cam_move[0][i])
                  + np.radians(float(obj_move[1][j]) + float(cam_move[1][i])) * quality[oid]["radius_mm"])
         c = quality[oid]["contour_px"]
+        own = bool(np.isfinite(c))
         if view_contour_px is not None and np.isfinite(view_contour_px[i]):
-            c = max(c, float(view_contour_px[i])) if np.isfinite(c) else float(view_contour_px[i])
-        ps = classify(c, sig, moved, observed=any(k[1] == oid for k in visible),
+            c = max(c, float(view_contour_px[i])) if own else float(view_contour_px[i])
+        ps = classify(c, sig, moved, observed=any(k[1] == oid for k in visible), own_contour=own,
                       numerical_failure=(im, oid) in failed, width_px=views[i].width, turned_deg=turned_deg[j],
                       shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width),
                       turn_gain=turn_gain.get(oid, (float("nan"),))[0], turn_label=turn_gain.get(oid, (0, ""))[1],

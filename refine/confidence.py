@@ -29,7 +29,8 @@ and scale with the width); ``uncertain`` when the contour is loose (``> OK_PX``)
 initial pose (modulo symmetries), a copy of it turned 20-40 deg about a model axis fits the texture
 inside its silhouette better (:func:`ycbvss.refine.turn_check.turned_wrong`), or its projected centre moved farther from the initial poses' than
 :func:`shift_limit_px` allows (median over views), the pose was still
-moving, or the object had no image terms; ``converged`` otherwise. ``converged`` therefore means:
+moving, the object had no image terms, or no visible contour of its own (a view's offset over
+its other objects can fail a pose, not verify it); ``converged`` otherwise. ``converged`` therefore means:
 the pose stopped (last outer step below ``MOVE_TOL_MM`` / ``MOVE_TOL_DEG``), its silhouette lies on
 image edges and its calibrated uncertainty is small.
 
@@ -209,7 +210,7 @@ class PoseStatus:
 def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, observed: bool,
              numerical_failure: bool = False, width_px: int = REF_WIDTH_PX, turned_deg: float = 0.0,
              shifted_px: float = 0.0, shift_limit_px: float = float("inf"), turn_gain: float = float("nan"),
-             turn_fit: float = float("nan"), turn_label: str = "") -> PoseStatus:
+             turn_fit: float = float("nan"), turn_label: str = "", own_contour: bool = True) -> PoseStatus:
     """Status and confidence of one pose (see the module docstring for the rules). ``contour_px``
     is measured in an image ``width_px`` wide; the thresholds ``OK_PX`` / ``FAIL_PX`` hold at
     ``REF_WIDTH_PX`` (YCB-V's 640 px) and scale with the width, so an offset means the same
@@ -223,6 +224,12 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
     else:
         q_c = 0.5
         reasons.append("contour not visible")
+    if np.isfinite(contour_px) and not own_contour:
+        # the contour given is its view's (the other objects'): it can show a wrong camera, not that
+        # this object fits -- on the suite a large marker with no contour of its own ended 20 deg
+        # tilted (ADD 18 mm) in every view of a medium clip and took its view's 0.3 px
+        q_c *= 0.5
+        reasons.append("own contour not visible")
     s = sig_add_mm if (sig_add_mm is not None and np.isfinite(sig_add_mm)) else None
     q_s = float(np.exp(-s / CONF_SIGMA_MM)) if s is not None else 0.5
     conf = q_c * q_s

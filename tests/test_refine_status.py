@@ -68,6 +68,11 @@ def test_classify_rules():
     slid = classify(0.37, 0.5, 0.0, True, shifted_px=23.5, shift_limit_px=lim)
     assert slid.status == "uncertain" and "moved 24 px" in slid.reason and slid.confidence < 0.5
     assert classify(0.37, 0.5, 0.0, True, shifted_px=4.0, shift_limit_px=lim).status == "converged"
+    # no contour of its own: its view's offset does not verify it (the suite's large marker ended
+    # 20 deg tilted, ADD 18 mm, in every view of medium-5 and took its view's 0.3 px), but can fail it
+    hidden = classify(0.3, 0.5, 0.0, True, own_contour=False)
+    assert hidden.status == "uncertain" and "own contour not visible" in hidden.reason and hidden.confidence < 0.5
+    assert classify(2.9, 0.5, 0.0, True, own_contour=False).status == "failed"
 
 
 def test_contour_offset_measures_a_shifted_silhouette(scene3):
