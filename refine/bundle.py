@@ -8,6 +8,7 @@ import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -880,8 +881,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
     shift in ``quality``. ``view_contour_px`` (n,): the median contour offset of each view's objects;
     a pose's contour counts as the larger of its object's (median over views) and its view's; an
     object without a visible contour of its own stays unverified (its view's offset can only fail it).
-    ``turn_gain``: obj_id -> (best gain, label, transform, interior NCC, turned NCC) of :func:`_turn_gains`,
-    recorded in ``quality``."""
+    ``turn_gain``: obj_id -> :class:`_TurnFit` (:func:`_turn_gains`), recorded in ``quality``."""
     status, confidence, reasons = {}, {}, {}
     turn_gain = turn_gain or {}
     for (im, oid), P in poses.items():
@@ -894,21 +894,22 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
         own = bool(np.isfinite(c))
         if view_contour_px is not None and np.isfinite(view_contour_px[i]):
             c = max(c, float(view_contour_px[i])) if own else float(view_contour_px[i])
+        tf = turn_gain.get(oid)
         ps = classify(c, sig, moved, observed=any(k[1] == oid for k in visible), own_contour=own,
                       numerical_failure=(im, oid) in failed, width_px=views[i].width, turned_deg=turned_deg[j],
                       shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width),
-                      turn_gain=turn_gain.get(oid, (float("nan"),))[0], turn_label=turn_gain.get(oid, (0, ""))[1],
-                      turn_fit=turn_gain.get(oid, (0,) * 5)[4] if oid in turn_gain else float("nan"))
+                      turn_gain=tf.gain if tf else float("nan"), turn_fit=tf.fit if tf else float("nan"),
+                      turn_label=tf.label if tf else "")
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
         quality[oid].setdefault("shift_px", round(float(shift[0][j]), 2))
         quality[oid].setdefault("init_scatter_px", round(float(shift[1][j]), 2))
-        if oid in turn_gain:
-            quality[oid].setdefault("turn_gain_ncc", round(float(turn_gain[oid][0]), 4))
-            quality[oid].setdefault("turn_best", turn_gain[oid][1])
-            quality[oid].setdefault("interior_ncc", round(float(turn_gain[oid][3]), 4))
-            quality[oid].setdefault("turn_fit_ncc", round(float(turn_gain[oid][4]), 4))
+        if tf:
+            quality[oid].setdefault("turn_gain_ncc", round(float(tf.gain), 4))
+            quality[oid].setdefault("turn_best", tf.label)
+            quality[oid].setdefault("interior_ncc", round(float(tf.ncc), 4))
+            quality[oid].setdefault("turn_fit_ncc", round(float(tf.fit), 4))
     return status, confidence, reasons
 
 
@@ -952,11 +953,21 @@ def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, 
     return quality, view_px
 
 
+class _TurnFit(NamedTuple):
+    """An object's turned-copy check (:mod:`ycbvss.refine.turn_check`): the best turn's mean gain
+    (NCC) over the refined pose, its label and model-frame transform (None when no turn was
+    measured), the refined pose's own mean interior NCC and the best turned copy's."""
+
+    gain: float
+    label: str
+    transform: np.ndarray | None
+    ncc: float
+    fit: float
+
+
 def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, syms: list,
-                imgs: _SceneImages, n_views: int = 3) -> dict[int, tuple]:
-    """Per object: the best gain (NCC) of a turned pose over the refined one, its label, its
-    model-frame transform (None when no turn was measured), the refined pose's own mean interior
-    NCC and the turned pose's (:mod:`ycbvss.refine.turn_check`), from up to ``n_views`` evenly spaced views. Each object
+                imgs: _SceneImages, n_views: int = 3) -> dict[int, _TurnFit]:
+    """Per object: its :class:`_TurnFit`, from up to ``n_views`` evenly spaced views. Each object
     is rendered, refined and turned, with the others in place so they still occlude it, in a window
     around its bounding sphere only (the turns are about the sphere's centre, so it holds them all;
     the window's size is rounded up to 32 px so the renderer reuses its buffers)."""
@@ -1009,8 +1020,8 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
     for j in turns:
         gain, lab, fit = best_turn(base[j], alt[j])
         b = np.asarray(base[j], float)
-        out[obj_ids[j]] = (gain, lab, dict(turns[j]).get(lab),
-                           float(np.mean(b[np.isfinite(b)])) if np.isfinite(b).any() else float("nan"), fit)
+        out[obj_ids[j]] = _TurnFit(gain, lab, dict(turns[j]).get(lab),
+                                   float(np.mean(b[np.isfinite(b)])) if np.isfinite(b).any() else float("nan"), fit)
     return out
 
 
@@ -1100,29 +1111,23 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     ``stats["turn_restart"]`` records what happened."""
     opt = options or RefineOptions()
     if not (opt.turn_check and opt.turn_restart):
-        res = _refine_scene_once(scene, models, init, opt, images)
-        res.stats.pop("_turn_transforms", None)
-        return res
+        return _refine_scene_once(scene, models, init, opt, images)[0]
     # the warnings of a pass are held back until it is known which pass's result is returned, so
     # each problem is reported once, by the result it belongs to
     with warnings.catch_warnings(record=True) as w1:
         warnings.simplefilter("always")
-        res = _refine_scene_once(scene, models, init, opt, images)
-    A = res.stats.pop("_turn_transforms", {})
-    flagged = {o: q for o, q in res.quality.items()
-               if turned_wrong(q.get("turn_gain_ncc", float("nan")), q.get("turn_fit_ncc", float("nan")))}
+        res, turns = _refine_scene_once(scene, models, init, opt, images)
+    flagged = {o: q for o, q in res.quality.items() if o in turns and turned_wrong(turns[o].gain, turns[o].fit)}
     if not flagged:
         _replay(w1)
         return res
     init2 = {k: T for k, T in init.items() if k[1] not in flagged}
-    init2.update({k: T @ A[k[1]] for k, T in res.poses.items() if k[1] in flagged and np.isfinite(T).all()})
+    init2.update({k: T @ turns[k[1]].transform for k, T in res.poses.items() if k[1] in flagged and np.isfinite(T).all()})
     with warnings.catch_warnings(record=True) as w2:
         warnings.simplefilter("always")
-        res2 = _refine_scene_once(scene, models, init2, opt, images)
-    res2.stats.pop("_turn_transforms", None)
-    keep = all(o in res2.quality and not turned_wrong(res2.quality[o].get("turn_gain_ncc", float("nan")),
-                                                      res2.quality[o].get("turn_fit_ncc", float("nan")))
-               and res2.quality[o].get("interior_ncc", -1.0) > q.get("interior_ncc", 1.0) for o, q in flagged.items())
+        res2, turns2 = _refine_scene_once(scene, models, init2, opt, images)
+    keep = all(o in turns2 and not turned_wrong(turns2[o].gain, turns2[o].fit) and turns2[o].ncc > turns[o].ncc
+               for o in flagged)
     note = {str(o): {"turn": q["turn_best"], "gain_ncc": q["turn_gain_ncc"],
                      "after_gain_ncc": res2.quality.get(o, {}).get("turn_gain_ncc"), "kept": keep} for o, q in flagged.items()}
     msg = (f"restarted {_id_list(sorted(flagged))} from turned copies: "
@@ -1146,8 +1151,9 @@ def _replay(caught: list) -> None:
         warnings.warn_explicit(x.message, x.category, x.filename, x.lineno, source=x.source)
 
 
-def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, images: dict | None) -> RefineResult:
-    """One pass of :func:`refine_scene` (no restart)."""
+def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, images: dict | None
+                       ) -> tuple[RefineResult, dict[int, _TurnFit]]:
+    """One pass of :func:`refine_scene` (no restart); also returns the turned-copy check per object."""
     t_start = time.perf_counter()
     frames, views, imgs, vidx = _scene_views(scene, images)
     obs, obj_ids, missing = _observations(scene, models, init, vidx, frames)
@@ -1188,7 +1194,6 @@ def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, imag
     stats["view_contour_px"] = [round(float(x), 3) for x in view_px]
     turn_gain = (_turn_gains(views, models, obj_ids, known & ~bad_obj, poses, syms, imgs)
                  if opt.turn_check else {})
-    stats["_turn_transforms"] = {o: g[2] for o, g in turn_gain.items()}
     stats["confidence_s"] = time.perf_counter() - t0
     status, confidence, reasons = _statuses(poses, views, vidx, obj_ids, sigma, quality, ks.stage.obj_move,
                                             (cam_move_mm, cam_move_deg), visible, failed,
@@ -1202,4 +1207,4 @@ def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, imag
                         init_poses={k: v for k, v in init_poses.items() if known[obj_ids.index(k[1])]},
                         sigma=sigma, log=log, converged=bool(converged), missing_objects=missing,
                         visible=visible, stats=stats, status=status, confidence=confidence, reasons=reasons,
-                        quality=quality)
+                        quality=quality), turn_gain
