@@ -12,6 +12,9 @@ evaluated with the same samples (model points, matches) for step acceptance.
   w = rho * max(s, s_floor)^(rho - 2) (s the pixel error); matches beyond ``cap_px`` are outliers.
 - :class:`TemporalTerm`: f_t = sum ||x - pi(T_c_i T_c_k^-1 Y_k)||^rho for camera-k points Y_k
   (back-projected through the rendered depth) matched to pixels x of view i; cameras only.
+- :class:`DepthTerm`: sum min((z - z_obs)^2, cap^2) over model points' camera depths (mm), the
+  scene-consistent initialisation's anchor for the depth the reprojection cost hardly sees. Its
+  scalar residual takes row 0 of the two-row form (row 1 is zero).
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ from ..geometry.se3 import inv_T
 from .cubic_kernel import edge_cost_sum
 from .normal_kernel import as_f64
 from .edge import EdgeField, sample_E, sample_field
-from .jacobians import MIN_Z_MM, object_point_jacobians, project_points, transfer_point_jacobians
+from .jacobians import MIN_Z_MM, _se3_jac, object_point_jacobians, project_points, transfer_point_jacobians
 from .problem import BundleProblem
 
 
@@ -240,3 +243,63 @@ class TemporalTerm(_RobustReprojectionTerm):
     def _linear(self, pb: BundleProblem, gr: TemporalGroup):
         uv, Ji, Jk, valid = transfer_point_jacobians(pb.views[gr.i].K, pb.T_c[gr.i], pb.T_c[gr.k], gr.Y_k)
         return uv, int(pb.cam_block[gr.i]), int(pb.cam_block[gr.k]), Ji, Jk, valid
+
+
+@dataclass
+class DepthGroup:
+    i: int               # view index
+    j: int               # object index
+    X: np.ndarray        # (N, 3) model points (mm)
+    z_mm: np.ndarray     # (N,) their observed depth in camera i (mm)
+
+
+@dataclass
+class DepthTerm:
+    """Truncated quadratic on the camera-frame depth of model points: f = weight * sum
+    min((z_obs - z)^2, cap_mm^2), z the depth of P_ij X (mm). Points off by more than ``cap_mm``
+    are outliers (constant cost, no gradient)."""
+
+    groups: list[DepthGroup] = field(default_factory=list)
+    weight: float = 1.0
+    cap_mm: float = 50.0
+    name: str = "depth"
+
+    def n_obs(self) -> int:
+        return int(sum(len(gr.X) for gr in self.groups))
+
+    def _residual(self, pb: BundleProblem, gr: DepthGroup) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(z_obs - z (N,), world points W (N, 3), camera points Y (N, 3))."""
+        T_m, T_c = pb.T_m[gr.j], pb.T_c[gr.i]
+        W = gr.X @ T_m[:3, :3].T + T_m[:3, 3]
+        Y = W @ T_c[:3, :3].T + T_c[:3, 3]
+        return gr.z_mm - Y[:, 2], W, Y
+
+    def cost(self, pb: BundleProblem) -> float:
+        tot = 0.0
+        for gr in self.groups:
+            r = self._residual(pb, gr)[0]
+            tot += float(np.minimum(r * r, self.cap_mm ** 2).sum())
+        return self.weight * tot
+
+    def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
+        total, out = 0.0, []
+        for gr in self.groups:
+            r, W, Y = self._residual(pb, gr)
+            total += float(np.minimum(r * r, self.cap_mm ** 2).sum())
+            ok = np.abs(r) < self.cap_mm
+            if not ok.any():
+                continue
+            r, W, Y = r[ok], W[ok], Y[ok]
+            n = len(r)
+            Mc = np.zeros((n, 2, 3))
+            Mc[:, 0, 2] = 1.0                                  # d z / d Y
+            Mo = np.zeros((n, 2, 3))
+            Mo[:, 0, :] = pb.T_c[gr.i][2, :3]                  # d z / d W = row 2 of R_c
+            Jc = _se3_jac(Mc, Y, np.empty((n, 2, 6)))
+            Jo = _se3_jac(Mo, W, np.empty((n, 2, 6)))
+            A = np.zeros((n, 2, 2))
+            A[:, 0, 0] = 2.0 * self.weight
+            g = np.zeros((n, 2))
+            g[:, 0] = -2.0 * self.weight * r                   # d f / d z
+            out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j]), Jc, Jo, A, g))
+        return self.weight * total, out

@@ -1,0 +1,83 @@
+"""The scene-consistent initialisation's depth anchor (refine.terms.DepthTerm, refine.init).
+
+Pure math on synthetic point-cloud objects: no images, so no renderer is involved."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ycbvss.geometry.se3 import exp_se3, make_T
+from ycbvss.geometry.so3 import exp_so3
+from ycbvss.pipeline.perturb import perturb_poses
+from ycbvss.refine.init import initialise
+from ycbvss.refine.problem import BundleProblem, View
+from ycbvss.refine.solver import assemble, linearize_all
+from ycbvss.refine.terms import DepthGroup, DepthTerm
+
+K = np.array([[1066.8, 0, 313.0], [0, 1067.5, 241.3], [0, 0, 1]])
+
+
+def test_depth_term_gradient_matches_finite_differences():
+    rng = np.random.default_rng(0)
+    T_c = np.stack([np.eye(4), exp_se3(np.r_[50, 10, -20, 0.1, 0.2, 0.05])])
+    T_m = exp_se3(np.r_[10, 20, 900, 0.3, -0.2, 0.1])[None]
+    pb = BundleProblem([View(0, K, 640, 480), View(1, K, 640, 480)], [1], T_c, T_m)
+    X = rng.normal(size=(40, 3)) * 40
+    z = [X @ pb.pose(i, 0)[2, :3] + pb.pose(i, 0)[2, 3] + rng.normal(size=40) * 5 for i in range(2)]
+    z[1][:3] += 500.0      # three outliers beyond the cap: no gradient
+    term = DepthTerm([DepthGroup(i, 0, X, z[i]) for i in range(2)], weight=0.3, cap_mm=60.0)
+    _, _, lins = linearize_all(pb, [term])
+    _, g = assemble(pb.n_blocks, lins)
+    num = np.zeros(12)
+    for k in range(12):
+        d = np.zeros(12)
+        d[k] = 1e-6
+        st = pb.state()
+        pb.apply_step(d)
+        cp = term.cost(pb)
+        pb.set_state(st)
+        pb.apply_step(-d)
+        cm = term.cost(pb)
+        pb.set_state(st)
+        num[k] = (cp - cm) / 2e-6
+    assert np.abs(num - g).max() <= 1e-5 * np.abs(g).max()
+
+
+def _scene(n_views: int, arc_deg: float, rng: np.random.Generator):
+    """Five box-shaped point clouds (50-160 mm) around the origin, cameras on an arc 1 m away."""
+    Xs, T_ms = [], []
+    for _ in range(5):
+        Xs.append(rng.uniform(-0.5, 0.5, (150, 3)) * rng.uniform(50, 160, 3))
+        T_ms.append(make_T(exp_so3(rng.normal(0, 1, 3)),
+                           np.r_[rng.uniform(-150, 150), rng.uniform(-60, 60), rng.uniform(-80, 80)]))
+    gt = {}
+    for i in range(n_views):
+        a = np.radians(-arc_deg / 2 + arc_deg * i / (n_views - 1))
+        c = np.r_[1000 * np.sin(a), -400, -900 * np.cos(a)]
+        z = -c / np.linalg.norm(c)
+        x = np.cross([0, 1, 0], z)
+        x /= np.linalg.norm(x)
+        R = np.stack([x, np.cross(z, x), z])
+        for j in range(5):
+            gt[(i, j)] = make_T(R, -R @ c) @ T_ms[j]
+    return Xs, gt
+
+
+@pytest.mark.parametrize("n_views,arc_deg", [(30, 20.0), (60, 60.0)])
+def test_consensus_depth_follows_the_observations(n_views, arc_deg):
+    """The paper's initial error (mean ADD 22.1 mm, PRJ 5.2 px) drawn per (view, object): with the
+    depth anchor the consensus's mean depth error equals the observations' within 1.5 mm (measured
+    0.1-1.0 mm over these seeds); the reprojection cost alone left it 1.3-4.3 mm deeper here, and
+    +1 to +12 mm deeper on the suite's clips."""
+    dev_anchor, dev_reproj = [], []
+    for seed in range(3):
+        Xs, gt = _scene(n_views, arc_deg, np.random.default_rng(100 + seed))
+        obs = perturb_poses(gt, {k: K for k in gt}, dict(enumerate(Xs)), 22.1, 5.2, seed=seed).poses
+        views = [View(i, K, 640, 480) for i in range(n_views)]
+        dz_obs = np.mean([obs[k][2, 3] - gt[k][2, 3] for k in gt])
+        for w, out in ((0.05, dev_anchor), (0.0, dev_reproj)):
+            pb, known = initialise(views, 5, dict(obs), Xs, depth_weight=w)
+            assert known.all()
+            out.append(np.mean([pb.pose(*k)[2, 3] - gt[k][2, 3] for k in gt]) - dz_obs)
+    assert max(abs(d) for d in dev_anchor) <= 1.5, dev_anchor
+    assert np.mean(dev_reproj) >= 1.0, dev_reproj        # the bias the anchor removes is present here
