@@ -1,6 +1,8 @@
 """The bundle problem: views (cameras), objects and their parameter blocks.
 
-World frame = the first view's camera frame (its camera is fixed to identity, the gauge).
+World frame = the first view's camera frame (by default its camera is fixed to identity, the
+gauge; the refiner's keyframe bundle frees it while solving and moves the world back afterwards,
+see ``RefineOptions.free_gauge``).
 The pose of object j in view i is P_ij = T_c[i] @ T_m[j] (object-to-camera, mm).
 Parameters are left se(3) increments: camera blocks for views 1..n-1 (those marked free), then
 object blocks for all objects (those marked free).
@@ -33,7 +35,7 @@ class BundleProblem:
     obj_ids: list[int]
     T_c: np.ndarray
     T_m: np.ndarray
-    cam_free: np.ndarray = field(default=None)    # (n,) bool; view 0 is never free
+    cam_free: np.ndarray = field(default=None)    # (n,) bool; default: all but view 0
     obj_free: np.ndarray = field(default=None)    # (m,) bool
 
     def __post_init__(self):
