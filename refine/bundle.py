@@ -1109,10 +1109,8 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
     terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
     if stage.free_gauge:
-        # back to world = first camera, which is held fixed again for the covariance
-        G = pb.T_c[0].copy()
-        pb.T_c = pb.T_c @ inv_T(G)
-        pb.T_m = G @ pb.T_m
+        # world = first camera (as after every solve), which is held fixed again for the covariance
+        pb.T_c, pb.T_m = _in_first_camera(pb.state())
         pb.cam_free[0] = False
         pb._index()
     visible = {(views[kf[i]].im_id, obj_ids[j]) for (i, j) in stage.visible}

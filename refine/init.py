@@ -138,7 +138,8 @@ def initialise(views: list[View], n_objs: int, obs: dict[tuple[int, int], np.nda
             x, _, _, valid = object_point_jacobians(Ks[i], np.eye(4), P, X[j])
             if valid.any():
                 groups.append(PointGroup(i, j, X[j][valid], x[valid]))
-                depth.append(DepthGroup(i, j, X[j][valid], X[j][valid] @ P[2, :3] + P[2, 3]))
+                if with_depth:
+                    depth.append(DepthGroup(i, j, X[j][valid], X[j][valid] @ P[2, :3] + P[2, 3]))
         terms = [PointTerm(groups, weight=1.0, rho=2.0, floor_px=0.0, cap_px=tau, name="init")]
         if with_depth:
             terms.append(DepthTerm(depth, weight=depth_weight, cap_mm=depth_cap_mm))

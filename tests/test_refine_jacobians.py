@@ -9,7 +9,8 @@ from ycbvss.refine.edge import EdgeField, edge_field
 from ycbvss.refine.jacobians import object_point_jacobians, transfer_point_jacobians
 from ycbvss.refine.problem import BundleProblem, View
 from ycbvss.refine.solver import assemble
-from ycbvss.refine.terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
+from ycbvss.refine.terms import (DepthGroup, DepthTerm, EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup,
+                                 TemporalTerm)
 
 K = np.array([[500.0, 0, 160], [0, 505.0, 120], [0, 0, 1]])
 
@@ -91,6 +92,19 @@ def test_term_gradients_match_finite_differences():
         g_fd = _fd_gradient(pb, term, h)
         rel = np.linalg.norm(g - g_fd) / np.linalg.norm(g_fd)
         assert rel < tol, (term.name, rel)
+
+
+def test_depth_term_gradient_matches_finite_differences():
+    """DepthTerm (the initialisation's depth anchor), points beyond its cap included (no gradient)."""
+    rng = np.random.default_rng(0)
+    pb = _problem(rng)
+    X = rng.normal(size=(40, 3)) * 40
+    z = [X @ pb.pose(i, 0)[2, :3] + pb.pose(i, 0)[2, 3] + rng.normal(size=40) * 5 for i in range(2)]
+    z[1][:3] += 500.0      # three outliers beyond the cap
+    term = DepthTerm([DepthGroup(i, 0, X, z[i]) for i in range(2)], weight=0.3, cap_mm=60.0)
+    _, lins = term.linearize(pb)
+    _, g = assemble(pb.n_blocks, lins)
+    assert np.abs(_fd_gradient(pb, term, 1e-6) - g).max() <= 1e-5 * np.abs(g).max()
 
 
 def test_uniform_image_gives_flat_edge_field():
