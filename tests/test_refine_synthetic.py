@@ -90,7 +90,8 @@ def test_single_view_refines_objects(scene4):
     assert res.sigma["cameras"] == {}
 
 
-def test_bad_inputs_never_nan(scene4):
+@pytest.mark.parametrize("free_gauge", [False, True])
+def test_bad_inputs_never_nan(scene4, free_gauge):
     ps, imgs, gt, pts = scene4
     frames = ps.frames[:3]
     ims = {f.im_id: imgs[f.im_id] for f in frames}
@@ -108,13 +109,14 @@ def test_bad_inputs_never_nan(scene4):
         init[(f.im_id, 5)] = T
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        res = refine_scene(Scene(1, frames), ps.models, init, RefineOptions(max_iters=2, coarse_iters=1), images=ims)
+        res = refine_scene(Scene(1, frames), ps.models, init, RefineOptions(max_iters=2, coarse_iters=1,
+                                                                              free_gauge=free_gauge), images=ims)
     assert sum("invalid init pose" in str(x.message) for x in w) == 2
     assert len(res.poses) == 3 * 5                                         # every (view, object) gets a pose
     assert all(np.all(np.isfinite(T)) for T in res.poses.values())
     assert isinstance(res.converged, bool)
     assert not any(k[1] == 5 for k in res.visible)                        # never visible: no image terms
-    f0 = frames[0].im_id                                                   # its world pose stays the initialisation
+    f0 = frames[0].im_id     # its pose in the first camera stays the initialisation (also with the cameras free)
     assert np.allclose(res.poses[(f0, 5)], res.init_poses[(f0, 5)], atol=1e-3)
     # objects stay close to GT in the good views despite the bad ones (robust init + refinement)
     e = _mean_err(res.poses, {k: gt[k] for k in res.poses if k[0] != frames[2].im_id and k[1] != 5}, pts,
