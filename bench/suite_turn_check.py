@@ -88,6 +88,8 @@ def main(argv: list[str] | None = None) -> int:
     t, curves = capture_table(by_mode[cap])
     t.caption = (f"Capture range with the turned-copy check ({cap}), clips "
                  f"{', '.join(sorted({r.clip.name for r in runs}))}, seeds {a.seeds}: share of poses refined to ADD < 2 mm")
+    if not curves:      # no capture-range init (prj<N>/add<N>) among --inits: no curve to draw
+        return 0
     write_table(t, out, f"capture_prj_turn{a.tag}")
     capture_png(curves, out / f"capture_prj_turn{a.tag}.png")
     return 0
