@@ -12,11 +12,15 @@ from every init of ``--inits`` (``paper``, ``prj<N>``, ``add<N>``: see
 already done under ``--work/<mode>`` are reused. Writes ``turn_check.{md,csv,tex}`` (per mode and
 init: poses, share refined to ADD < 2 mm, poses with ADD > 10 mm and how many of them were reported
 ``converged``, converged share, mean tz / R) and, for the last mode, the capture range against the
-initial PRJ as ``capture_prj_turn.{md,csv,tex,png}`` (from the ``flag`` mode, the defaults, if run, else the last).
+initial PRJ as ``capture_prj_turn.{md,csv,tex,png}`` (from the ``flag`` mode, the defaults, if run, else the last),
+and per kind of clip the per-object means from the paper's init as ``objects_<kind>.{md,csv,tex}``.
+``--options`` adds RefineOptions overrides (JSON) to every mode, e.g. ``'{"free_gauge": true}'``;
+use a separate ``--work`` per option set (finished runs are reused by name).
 """
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -24,7 +28,7 @@ import numpy as np
 
 from ycbvss.eval.tables import Row, Table, write_table
 from ycbvss.pipeline.suite import build_suite, clips_of
-from ycbvss.pipeline.suite_report import capture_png, capture_table
+from ycbvss.pipeline.suite_report import capture_png, capture_table, object_table
 from ycbvss.pipeline.suite_run import Run, execute, read_rows
 
 MODES = {"off": {"turn_check": False}, "flag": {"turn_restart": False}, "restart": {"turn_restart": True}}
@@ -65,18 +69,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--work", required=True, help="per-mode run folders (rows.csv, done/)")
     ap.add_argument("--out", required=True, help="tables folder")
     ap.add_argument("--tag", default="", help="suffix of the table file names (e.g. _seed5)")
+    ap.add_argument("--options", default="{}",
+                    help='RefineOptions overrides for every mode, JSON (e.g. \'{"free_gauge": true}\')')
     a = ap.parse_args(argv)
     scenes = [int(s) for s in a.scenes.split(",")]
     inits = a.inits.split(",")
     seeds = [int(s) for s in a.seeds.split(",")]
     modes = a.modes.split(",")
+    extra = json.loads(a.options)
     root = Path(a.suite_root)
     models, specs = build_suite(a.dataset, root, scene_ids=scenes)
     runs = [Run(c, init, s) for spec in specs for c in clips_of(spec, tuple(a.kinds.split(",")))
             for init in inits for s in seeds]
     by_mode = {}
     for mode in modes:
-        rows_path = execute(runs, root, models, Path(a.work) / mode, MODES[mode])
+        rows_path = execute(runs, root, models, Path(a.work) / mode, {**MODES[mode], **extra})
         keys = {(r.clip.name, r.init, r.seed) for r in runs}
         by_mode[mode] = [r for r in read_rows(rows_path) if (r["clip"], r["init"], r["seed"]) in keys]
     out = Path(a.out)
@@ -85,6 +92,9 @@ def main(argv: list[str] | None = None) -> int:
             + (f" (held out: {', '.join(held)}" + (", and every seed >= 5)" if max(seeds) >= 5 else ")") if held else ""))
     write_table(turn_table(by_mode, inits, what), out, f"turn_check{a.tag}")
     cap = "flag" if "flag" in modes else modes[-1]
+    for kind in a.kinds.split(","):     # per-object means from the paper's init (that mode)
+        if any(r["kind"] == kind and r["init"] == "paper" for r in by_mode[cap]):
+            write_table(object_table(by_mode[cap], models, kind), out, f"objects_{kind}{a.tag}")
     t, curves = capture_table(by_mode[cap])
     t.caption = (f"Capture range with the turned-copy check ({cap}), clips "
                  f"{', '.join(sorted({r.clip.name for r in runs}))}, seeds {a.seeds}: share of poses refined to ADD < 2 mm")
