@@ -8,6 +8,7 @@ import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from dataclasses import replace as dc_replace
 from typing import NamedTuple
 
 import numpy as np
@@ -119,6 +120,10 @@ class RefineOptions:
     # can_stripes tz 0.79 -> 0.82 mm (target 0.8). An object in no view's terms keeps its pose
     # relative to the first camera, as with the gauge fixed (README, "Measured")
     free_gauge: bool = False
+    # with the first camera fixed: after each keyframe solve, the first camera alone is fitted to
+    # the rest of the bundle (every other camera and object held) and the world is moved back to it
+    # -- the coherent move of every other block that the damping slows (see free_gauge)
+    register_gauge: bool = False
     pose_tol_mm: float = 0.05         # converged: the last outer iteration moved no pose more than this
     pose_tol_deg: float = 0.02
     seed: int = 0
@@ -178,6 +183,8 @@ class _Stage:
         # every camera free while solving, the world moved back to the first camera after each solve
         # (RefineOptions.free_gauge; set by the keyframe bundle only)
         self.free_gauge = bool(np.all(pb.cam_free)) and len(pb.cam_free) > 0 and name == "keyframes"
+        self.register_gauge = (opt.register_gauge and name == "keyframes" and len(pb.cam_free) > 1
+                               and not pb.cam_free[0] and bool(np.any(pb.cam_free[1:])))
         self._point_term = None
         self.fold_angle = opt.fold_min_angle_deg
         # last outer iteration's change of every camera / object: (mm, deg) arrays
@@ -343,6 +350,27 @@ class _Stage:
         self._t("temporal_matching_s", time.perf_counter() - t0)
         return TemporalTerm(groups, weight=opt.beta, rho=opt.rho)
 
+    def _register_gauge(self, terms: list, sopt: SolverOptions, stage: str) -> None:
+        """Fit the first (gauge) camera alone to the rest of the bundle -- its own terms only, every
+        other camera and object held -- then move the world back to it, so the rest moves
+        coherently by the inverse of that camera's correction (RefineOptions.register_gauge)."""
+        pb = self.pb
+        own = [dc_replace(t, groups=[g for g in t.groups if g.i == 0 or getattr(g, "k", -1) == 0]) for t in terms]
+        own = [t for t in own if t.groups]
+        if not own:
+            return
+        cam_free, obj_free = pb.cam_free.copy(), pb.obj_free.copy()
+        pb.cam_free[:] = False
+        pb.cam_free[0] = True
+        pb.obj_free[:] = False
+        pb._index()
+        try:
+            run_lm(pb, own, sopt, self.log, stage=stage + " gauge")
+        finally:
+            pb.cam_free, pb.obj_free = cam_free, obj_free
+            pb._index()
+        pb.T_c, pb.T_m = _in_first_camera(pb.state())
+
     def _object_edge_costs(self, fields: dict) -> np.ndarray:
         """Mean edge cost E (0 on an image edge, 1 far from any) of each object's template edge
         samples at the current poses in the given fields, over the stage's views; (n_objs,), NaN
@@ -467,6 +495,8 @@ class _Stage:
                 if any(e.get("singular", 0) >= sopt.max_tries for e in self.log[n_log:]):
                     self.numerical_failure = True
                 self._t("solve_s", time.perf_counter() - t0)
+                if self.register_gauge:
+                    self._register_gauge(terms, sopt, f"{self.name} sigma={sigma:g} outer={outer}")
                 st1 = pb.state()
                 if self.free_gauge:     # the world goes back to the first camera after each solve
                     st = _in_first_camera(st)
