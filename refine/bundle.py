@@ -186,6 +186,7 @@ class _Stage:
         self.register_gauge = (opt.register_gauge and name == "keyframes" and len(pb.cam_free) > 1
                                and not pb.cam_free[0] and bool(np.any(pb.cam_free[1:])))
         self._point_term = None
+        self._T_m_starts: list[np.ndarray] = []
         self.fold_angle = opt.fold_min_angle_deg
         # last outer iteration's change of every camera / object: (mm, deg) arrays
         self.numerical_failure = False    # a linear system stayed singular / non-finite at every damping
@@ -369,7 +370,16 @@ class _Stage:
         finally:
             pb.cam_free, pb.obj_free = cam_free, obj_free
             pb._index()
+        self._rebase_starts(pb.T_c[0])
         pb.T_c, pb.T_m = _in_first_camera(pb.state())
+
+    def _rebase_starts(self, G: np.ndarray) -> None:
+        """The world is about to be re-expressed in the frame of the first camera's pose ``G``
+        (world-to-camera): move the objects' stored level-start poses with it, so the coarse-move
+        check compares poses in one frame (without this, under free_gauge / register_gauge a
+        pose from an earlier level lands where the first camera's correction no longer puts it:
+        medium-7's foam brick, 28 px off)."""
+        self._T_m_starts = [G @ T for T in self._T_m_starts]
 
     def _object_edge_costs(self, fields: dict) -> np.ndarray:
         """Mean edge cost E (0 on an image edge, 1 far from any) of each object's template edge
@@ -464,7 +474,7 @@ class _Stage:
         sopt = SolverOptions(max_iters=opt.inner_iters, max_extrapolate=opt.max_extrapolate)
         lam = None
         n_built = 0
-        T_m_starts: list[np.ndarray] = []     # objects' world poses at the start of each level
+        self._T_m_starts = []     # objects' world poses at the start of each level (moved with the world)
         for li, sigma in enumerate(sigmas):
             n_outer = opt.max_iters if li == len(sigmas) - 1 else min(opt.coarse_iters, opt.max_iters)
             finest = li == len(sigmas) - 1 and len(sigmas) > 1
@@ -476,8 +486,8 @@ class _Stage:
             if li > 0 and opt.flow_prior:
                 self._flows.clear()    # f_t's flows follow the estimate: predicted again from this level's start
             if li > 0 and opt.verify_coarse:
-                self._verify_coarse_moves(T_m_starts, fields, f"{sigmas[li - 1]:g}->{sigma:g}")
-            T_m_starts.append(pb.T_m.copy())
+                self._verify_coarse_moves(self._T_m_starts, fields, f"{sigmas[li - 1]:g}->{sigma:g}")
+            self._T_m_starts.append(pb.T_m.copy())
             n_cap = n_outer + (opt.extra_iters if li == len(sigmas) - 1 else 0)
             prev_move, calm = None, 0
             for outer in range(n_cap):
@@ -500,6 +510,7 @@ class _Stage:
                 st1 = pb.state()
                 if self.free_gauge:     # the world goes back to the first camera after each solve
                     st = _in_first_camera(st)
+                    self._rebase_starts(st1[0][0])
                     T_c1, T_m1 = _in_first_camera(st1)
                     # an object in no view's terms has nothing that moves it: it keeps its pose
                     # relative to the first camera (as with the gauge fixed), not its place in a
