@@ -362,9 +362,7 @@ class _Stage:
         own = [t for t in own if t.groups]
         if not own:
             return
-        seen = {j for (_, j) in self.visible}
-        unseen = [j for j in range(len(pb.T_m)) if j not in seen]
-        P0_unseen = [pb.T_c[0] @ pb.T_m[j] for j in unseen]     # their poses in the first camera
+        before = pb.state()
         cam_free, obj_free = pb.cam_free.copy(), pb.obj_free.copy()
         pb.cam_free[:] = False
         pb.cam_free[0] = True
@@ -375,19 +373,23 @@ class _Stage:
         finally:
             pb.cam_free, pb.obj_free = cam_free, obj_free
             pb._index()
-        self._rebase_starts(pb.T_c[0])
-        pb.T_c, pb.T_m = _in_first_camera(pb.state())
-        # an object in no view's terms keeps its pose relative to the first camera (as with free_gauge)
-        for j, P0 in zip(unseen, P0_unseen):
-            pb.T_m[j] = inv_T(pb.T_c[0]) @ P0
+        self._world_to_first_camera(before)
 
-    def _rebase_starts(self, G: np.ndarray) -> None:
-        """The world is about to be re-expressed in the frame of the first camera's pose ``G``
-        (world-to-camera): move the objects' stored level-start poses with it, so the coarse-move
-        check compares poses in one frame (without this, under free_gauge / register_gauge a
-        pose from an earlier level lands where the first camera's correction no longer puts it:
-        medium-7's foam brick, 28 px off)."""
+    def _world_to_first_camera(self, before: tuple[np.ndarray, np.ndarray]) -> None:
+        """Re-express the problem with the (moved) first camera as the world again
+        (free_gauge / register_gauge). The objects' stored level-start poses move with the world,
+        so the coarse-move check compares poses in one frame (without this a pose from an earlier
+        level lands where the first camera's correction no longer puts it: medium-7's foam brick,
+        28 px off). An object in no view's terms has nothing that moves it: it keeps its pose
+        relative to the first camera in the state ``before`` the solve, as with the gauge fixed,
+        not its place in a world the first camera has left."""
+        pb = self.pb
+        seen = {j for (_, j) in self.visible}
+        unseen = [j for j in range(len(pb.T_m)) if j not in seen]
+        G = pb.T_c[0]
         self._T_m_starts = [G @ T for T in self._T_m_starts]
+        pb.T_c, pb.T_m = _in_first_camera(pb.state())
+        pb.T_m[unseen] = _in_first_camera(before)[1][unseen]
 
     def _object_edge_costs(self, fields: dict) -> np.ndarray:
         """Mean edge cost E (0 on an image edge, 1 far from any) of each object's template edge
@@ -515,19 +517,10 @@ class _Stage:
                 self._t("solve_s", time.perf_counter() - t0)
                 if self.register_gauge:
                     self._register_gauge(terms, sopt, f"{self.name} sigma={sigma:g} outer={outer}")
-                st1 = pb.state()
                 if self.free_gauge:     # the world goes back to the first camera after each solve
+                    self._world_to_first_camera(st)
                     st = _in_first_camera(st)
-                    self._rebase_starts(st1[0][0])
-                    T_c1, T_m1 = _in_first_camera(st1)
-                    # an object in no view's terms has nothing that moves it: it keeps its pose
-                    # relative to the first camera (as with the gauge fixed), not its place in a
-                    # world the free cameras have moved
-                    seen = {j for (_, j) in self.visible}
-                    unseen = [j for j in range(len(T_m1)) if j not in seen]
-                    T_m1[unseen] = st[1][unseen]
-                    pb.T_c, pb.T_m = T_c1, T_m1
-                    st1 = pb.state()
+                st1 = pb.state()
                 move = _translation_change(st, st1)
                 dmm, ddeg = self._record_moves(st, st1, move)
                 self.stats["last_change_mm"], self.stats["last_change_deg"] = round(dmm, 4), round(ddeg, 4)

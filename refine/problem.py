@@ -1,8 +1,8 @@
 """The bundle problem: views (cameras), objects and their parameter blocks.
 
 World frame = the first view's camera frame (by default its camera is fixed to identity, the
-gauge; the refiner's keyframe bundle frees it while solving and moves the world back afterwards,
-see ``RefineOptions.free_gauge``).
+gauge; the refiner's keyframe bundle re-fits it after each solve and moves the world back to it,
+see ``RefineOptions.register_gauge`` and ``free_gauge``).
 The pose of object j in view i is P_ij = T_c[i] @ T_m[j] (object-to-camera, mm).
 Parameters are left se(3) increments: camera blocks for views 1..n-1 (those marked free), then
 object blocks for all objects (those marked free).
