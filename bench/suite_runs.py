@@ -1,0 +1,108 @@
+"""Run chosen validation-suite runs and write the suite report from every rows file given.
+
+    python bench/suite_runs.py run --dataset ../shared/data/ycbv --suite-root /tmp/suite/full \\
+        --scenes 1,2,3 --kinds long --inits gt,paper --seeds 0 --work /tmp/suite/runs_long
+    python bench/suite_runs.py run ... --scenes 1 --kinds long --inits paper --seeds 0 \\
+        --variants "using all,w/o f_edge,w/o f_point,w/o f_t" --work /tmp/suite/runs_long
+    python bench/suite_runs.py report --dataset ../shared/data/ycbv --suite-root /tmp/suite/full \\
+        --rows /tmp/suite/runs_long/rows.csv /tmp/suite/runs_sm/rows.csv --out bench/results/ycbv21
+
+``run`` builds (or reuses) the scenes under ``--suite-root`` and refines every clip of ``--kinds`` x
+``--inits`` x ``--seeds`` x ``--variants`` with the default RefineOptions (``--options`` JSON adds
+overrides); finished runs under ``--work`` are reused (one process per work folder). It is the
+subset of ``ycbvss validate --suite ycbv21`` one chooses, e.g. the ablation on one long clip only.
+``report`` writes what :func:`ycbvss.pipeline.suite_report.write_report` writes (per-object,
+held-out, bias, status, coverage, ablation tables; objects < 10 % visible apart) and prints the
+per-axis sigma calibration factors that 2 sigma needs to cover 90 % of the development poses
+(narrow: short clips; wide: medium and long), with the coverage they and the current ones give on
+the development and the held-out poses.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ycbvss.pipeline.suite import build_suite, clips_of, suite_models
+from ycbvss.pipeline.suite_report import SIGMA_AXES, split_visible, visibility, write_report
+from ycbvss.pipeline.suite_run import Run, execute, read_rows
+from ycbvss.refine.confidence import sigma_scale
+
+
+def _ratio(rows: list[dict], err: str, sig: str) -> np.ndarray:
+    e = np.array([r[err] for r in rows], float)
+    s = np.array([r[sig] for r in rows], float)
+    ok = np.isfinite(e) & np.isfinite(s) & (s > 0)
+    return e[ok] / s[ok]
+
+
+def sigma_fit(rows: list[dict], k: float = 2.0, q: float = 0.9) -> dict:
+    """Per group (narrow, wide): the per-axis factors on the raw covariance sigmas that make
+    ``k`` sigma cover the share ``q`` of the development poses (paper init, all terms), and the
+    coverage of the current and of those factors on the development and held-out poses."""
+    rows = [r for r in rows if r["init"] == "paper" and r["variant"] == "using all"]
+    out = {}
+    for g, narrow in (("narrow", True), ("wide", False)):
+        sel = [r for r in rows if (r["kind"] == "short") == narrow]
+        dev = [r for r in sel if not r["held_out"]]
+        ho = [r for r in sel if r["held_out"]]
+        if not dev:
+            continue
+        fit = [float(np.quantile(_ratio(dev, e, s), q) / k) for e, s in SIGMA_AXES]
+        cur = sigma_scale(narrow)
+        rec = {"fit": fit, "current": list(cur), "n_dev": len(dev), "n_held_out": len(ho)}
+        for name, f in (("current", cur), ("fit", fit)):
+            for lab, rs in (("dev", dev), ("held_out", ho)):
+                rec[f"coverage_{name}_{lab}"] = [float(np.mean(_ratio(rs, e, s) <= k * c)) if rs else float("nan")
+                                                 for (e, s), c in zip(SIGMA_AXES, f)]
+        out[g] = rec
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("what", choices=("run", "report"))
+    ap.add_argument("--dataset", required=True, help="YCB-Video root (or BOP root) with the 21 models")
+    ap.add_argument("--suite-root", required=True)
+    ap.add_argument("--scenes", default="1,2,3,4,5,6,7,8,9")
+    ap.add_argument("--kinds", default="short,medium,long")
+    ap.add_argument("--inits", default="paper")
+    ap.add_argument("--seeds", default="0")
+    ap.add_argument("--variants", default="using all")
+    ap.add_argument("--options", default="{}", help="RefineOptions overrides (JSON)")
+    ap.add_argument("--work", help="run: the folder of rows.csv and the done markers")
+    ap.add_argument("--rows", nargs="*", default=[], help="report: rows.csv files (later ones append)")
+    ap.add_argument("--out", help="report: the table folder")
+    a = ap.parse_args(argv)
+    root = Path(a.suite_root)
+    scenes = [int(x) for x in a.scenes.split(",")]
+    if a.what == "run":
+        if not a.work:
+            ap.error("run needs --work")
+        models, specs = build_suite(a.dataset, root, "ycbv21", scene_ids=scenes)
+        runs = [Run(c, i, int(s), v) for sp in specs for c in clips_of(sp, a.kinds.split(","))
+                for i in a.inits.split(",") for s in a.seeds.split(",") for v in a.variants.split(",")]
+        print(f"{len(runs)} runs", flush=True)
+        execute(runs, root, models, Path(a.work), json.loads(a.options))
+        return 0
+    if not a.out or not a.rows:
+        ap.error("report needs --rows and --out")
+    rows = [r for p in a.rows for r in read_rows(Path(p))]
+    models = suite_models(a.dataset, root)
+    vis = visibility(root, scenes)
+    for name, p in write_report(rows, models, Path(a.out), vis).items():
+        print(f"{name}: {p}")
+    seen, _ = split_visible(rows, vis)
+    for g, rec in sigma_fit(seen).items():
+        print(f"sigma {g}: {rec['n_dev']} dev / {rec['n_held_out']} held-out poses; factors fitted "
+              f"{[round(x, 2) for x in rec['fit']]} (current {list(rec['current'])})")
+        for key in ("coverage_current_dev", "coverage_current_held_out", "coverage_fit_dev", "coverage_fit_held_out"):
+            print(f"  {key}: {[round(x, 3) for x in rec[key]]}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
