@@ -24,40 +24,33 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from ycbvss.pipeline.suite import build_suite, clips_of, suite_models
-from ycbvss.pipeline.suite_report import SIGMA_AXES, split_visible, visibility, write_report
+from ycbvss.pipeline.suite_report import SIGMA_AXES, coverage, split_visible, visibility, write_report
 from ycbvss.pipeline.suite_run import Run, execute, read_rows
 from ycbvss.refine.confidence import sigma_scale
 
 
-def _ratio(rows: list[dict], err: str, sig: str) -> np.ndarray:
-    e = np.array([r[err] for r in rows], float)
-    s = np.array([r[sig] for r in rows], float)
-    ok = np.isfinite(e) & np.isfinite(s) & (s > 0)
-    return e[ok] / s[ok]
-
-
-def sigma_fit(rows: list[dict], k: float = 2.0, q: float = 0.9) -> dict:
+def sigma_fit(rows: list[dict], k: float = 2.0) -> dict:
     """Per group (narrow, wide): the per-axis factors on the raw covariance sigmas that make
-    ``k`` sigma cover the share ``q`` of the development poses (paper init, all terms), and the
-    coverage of the current and of those factors on the development and held-out poses."""
+    ``k`` sigma cover 90 % of the development poses (paper init, all terms; the ``scale_for_90`` of
+    :func:`ycbvss.pipeline.suite_report.coverage`), and the coverage of the current and of those
+    factors on the development and held-out poses."""
     rows = [r for r in rows if r["init"] == "paper" and r["variant"] == "using all"]
     out = {}
     for g, narrow in (("narrow", True), ("wide", False)):
         sel = [r for r in rows if (r["kind"] == "short") == narrow]
         dev = [r for r in sel if not r["held_out"]]
         ho = [r for r in sel if r["held_out"]]
-        if not dev:
+        raw = coverage(dev, k)
+        if not any(v["n"] for v in raw.values()):
             continue
-        fit = [float(np.quantile(_ratio(dev, e, s), q) / k) for e, s in SIGMA_AXES]
-        cur = sigma_scale(narrow)
-        rec = {"fit": fit, "current": list(cur), "n_dev": len(dev), "n_held_out": len(ho)}
-        for name, f in (("current", cur), ("fit", fit)):
-            for lab, rs in (("dev", dev), ("held_out", ho)):
-                rec[f"coverage_{name}_{lab}"] = [float(np.mean(_ratio(rs, e, s) <= k * c)) if rs else float("nan")
-                                                 for (e, s), c in zip(SIGMA_AXES, f)]
+        axes = [e for e, _ in SIGMA_AXES]
+        fit = [raw[e]["scale_for_90"] for e in axes]
+        rec = {"fit": fit, "current": list(sigma_scale(narrow)), "n_dev": len(dev), "n_held_out": len(ho)}
+        for lab, rs in (("dev", dev), ("held_out", ho)):
+            cal = coverage(rs, k, calibrated=True)
+            rec[f"coverage_current_{lab}"] = [cal[e]["coverage"] for e in axes]
+            rec[f"coverage_fit_{lab}"] = [coverage(rs, k * f)[e]["coverage"] for e, f in zip(axes, fit)]
         out[g] = rec
     return out
 
