@@ -13,8 +13,8 @@ overrides); finished runs under ``--work`` are reused (one process per work fold
 subset of ``ycbvss validate --suite ycbv21`` one chooses, e.g. the ablation on one long clip only.
 ``report`` writes what :func:`ycbvss.pipeline.suite_report.write_report` writes (per-object,
 held-out, bias, status, coverage, ablation tables; objects < 10 % visible apart) and prints the
-per-axis sigma calibration factors that 2 sigma needs to cover 90 % of the development poses
-(narrow: short clips; wide: medium and long), with the coverage they and the current ones give on
+per-axis sigma calibration factors that 2 sigma (with the systematic floor) needs to cover 90 % of
+the development poses (narrow: short clips; wide: medium and long), with the coverage they and the current ones give on
 the development and the held-out poses.
 """
 from __future__ import annotations
@@ -24,33 +24,64 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from ycbvss.pipeline.suite import build_suite, clips_of, suite_models
-from ycbvss.pipeline.suite_report import SIGMA_AXES, coverage, split_visible, visibility, write_report
+from ycbvss.pipeline.suite_report import SIGMA_AXES, row_sigmas, split_visible, visibility, write_report
 from ycbvss.pipeline.suite_run import Run, execute, read_rows
-from ycbvss.refine.confidence import sigma_scale
+from ycbvss.refine.confidence import sigma_floor, sigma_scale
+
+
+def _factor_for_90(rows: list[dict], axis: int, k: float) -> float:
+    """The factor f on an axis' raw covariance sigma for which k * sqrt((f sigma)^2 + floor^2)
+    covers 90 % of ``rows`` (bisection; 0 when the floor alone covers them)."""
+    e, _ = SIGMA_AXES[axis]
+    err = np.array([r[e] for r in rows], float)
+    sig1 = np.array([row_sigmas(r, True, factors=(1.0, 1.0, 1.0, 1.0)) for r in rows], float)[:, axis]
+    flo = np.array([row_sigmas(r, True, factors=(0.0, 0.0, 0.0, 0.0)) for r in rows], float)[:, axis]
+    raw = np.sqrt(np.maximum(sig1 ** 2 - flo ** 2, 0.0))
+    ok = np.isfinite(err) & np.isfinite(raw)
+    share = lambda f: float(np.mean(err[ok] <= k * np.sqrt((f * raw[ok]) ** 2 + flo[ok] ** 2)))
+    if not ok.any() or share(0.0) >= 0.9:
+        return 0.0
+    lo, hi = 0.0, 1.0
+    while share(hi) < 0.9 and hi < 1e4:
+        hi *= 2
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if share(mid) < 0.9 else (lo, mid)
+    return hi
+
+
+def _covered_share(rows: list[dict], factors: tuple, k: float) -> list[float]:
+    """Per axis: share of ``rows`` within k sigma, sigma = factors x raw sigma + the floor."""
+    if not rows:
+        return [float("nan")] * len(SIGMA_AXES)
+    err = np.array([[r[e] for e, _ in SIGMA_AXES] for r in rows], float)
+    sig = np.array([row_sigmas(r, True, factors=factors) for r in rows], float)
+    ok = np.isfinite(err) & np.isfinite(sig)
+    return [float(np.mean(err[ok[:, a], a] <= k * sig[ok[:, a], a])) for a in range(len(SIGMA_AXES))]
 
 
 def sigma_fit(rows: list[dict], k: float = 2.0) -> dict:
-    """Per group (narrow, wide): the per-axis factors on the raw covariance sigmas that make
-    ``k`` sigma cover 90 % of the development poses (paper init, all terms; the ``scale_for_90`` of
-    :func:`ycbvss.pipeline.suite_report.coverage`), and the coverage of the current and of those
-    factors on the development and held-out poses."""
+    """Per group (narrow, wide): the per-axis factors on the raw covariance sigmas that, with the
+    systematic floor of :func:`ycbvss.refine.confidence.sigma_floor` added in quadrature, make
+    ``k`` sigma cover 90 % of the development poses (paper init, all terms), and the coverage of the
+    current and of those factors on the development and held-out poses."""
     rows = [r for r in rows if r["init"] == "paper" and r["variant"] == "using all"]
     out = {}
     for g, narrow in (("narrow", True), ("wide", False)):
         sel = [r for r in rows if (r["kind"] == "short") == narrow]
         dev = [r for r in sel if not r["held_out"]]
         ho = [r for r in sel if r["held_out"]]
-        raw = coverage(dev, k)
-        if not any(v["n"] for v in raw.values()):
+        if not dev:
             continue
-        axes = [e for e, _ in SIGMA_AXES]
-        fit = [raw[e]["scale_for_90"] for e in axes]
-        rec = {"fit": fit, "current": list(sigma_scale(narrow)), "n_dev": len(dev), "n_held_out": len(ho)}
+        fit = [_factor_for_90(dev, a, k) for a in range(len(SIGMA_AXES))]
+        rec = {"fit": fit, "current": list(sigma_scale(narrow)), "floor": list(sigma_floor(narrow)),
+               "n_dev": len(dev), "n_held_out": len(ho)}
         for lab, rs in (("dev", dev), ("held_out", ho)):
-            cal = coverage(rs, k, calibrated=True)
-            rec[f"coverage_current_{lab}"] = [cal[e]["coverage"] for e in axes]
-            rec[f"coverage_fit_{lab}"] = [coverage(rs, k * f)[e]["coverage"] for e, f in zip(axes, fit)]
+            rec[f"coverage_current_{lab}"] = _covered_share(rs, tuple(sigma_scale(narrow)), k)
+            rec[f"coverage_fit_{lab}"] = _covered_share(rs, tuple(fit), k)
         out[g] = rec
     return out
 
@@ -91,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     seen, _ = split_visible(rows, vis)
     for g, rec in sigma_fit(seen).items():
         print(f"sigma {g}: {rec['n_dev']} dev / {rec['n_held_out']} held-out poses; factors fitted "
-              f"{[round(x, 2) for x in rec['fit']]} (current {list(rec['current'])})")
+              f"{[round(x, 2) for x in rec['fit']]} (current {list(rec['current'])}, floor {list(rec['floor'])})")
         for key in ("coverage_current_dev", "coverage_current_held_out", "coverage_fit_dev", "coverage_fit_held_out"):
             print(f"  {key}: {[round(x, 3) for x in rec[key]]}")
     return 0

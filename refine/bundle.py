@@ -31,7 +31,7 @@ from .templates import (composite, ensure_meshes, get_renderer, mesh_key, object
                         view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_ncc, turn_transforms, turned_wrong
-from .confidence import calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_scale
+from .confidence import calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_floor, sigma_scale
 from .uncertainty import pose_sigmas
 
 
@@ -967,7 +967,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
               shift: tuple[np.ndarray, np.ndarray], view_contour_px: np.ndarray | None = None,
               turn_gain: dict | None = None) -> tuple[dict, dict, dict]:
     """Status, confidence and reasons per pose (:func:`ycbvss.refine.confidence.classify`) from the
-    calibrated sigmas, the contour quality, the last outer iteration's moves (mm, deg) of the
+    calibrated statistical sigmas (without the systematic floor), the contour quality, the last outer iteration's moves (mm, deg) of the
     pose's object and camera, the object's turn (deg) and its centre's shift and initial scatter (px,
     :func:`_shift_from_init_px`) from the initial poses; records each object's own last move and
     shift in ``quality``. ``view_contour_px`` (n,): the median contour offset of each view's objects;
@@ -979,7 +979,8 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
     for (im, oid), P in poses.items():
         i, j = vidx[im], obj_ids.index(oid)
         sp = sigma["poses"].get((im, oid))
-        sig = (sigma_add_mm(sp["sigma_t_mm"], sp["sigma_r_deg"], quality[oid]["radius_mm"]) if sp else None)
+        sig = (sigma_add_mm(sp.get("sigma_stat_t_mm", sp["sigma_t_mm"]), sp.get("sigma_stat_r_deg", sp["sigma_r_deg"]),
+                            quality[oid]["radius_mm"]) if sp else None)     # the pose-specific part
         moved = (float(obj_move[0][j]) + float(cam_move[0][i])
                  + np.radians(float(obj_move[1][j]) + float(cam_move[1][i])) * quality[oid]["radius_mm"])
         c = quality[oid]["contour_px"]
@@ -1286,6 +1287,7 @@ def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, imag
                                          np.where(bad_obj[:, None, None], pb0.T_m, T_m), cam_cov, ks.obj_cov,
                                          ks.cross, [v.im_id for v in views], obj_ids, known & ~bad_obj), ks.narrow)
     stats["sigma_scale"] = list(sigma_scale(ks.narrow))
+    stats["sigma_floor"] = list(sigma_floor(ks.narrow))
     t0 = time.perf_counter()
     quality, view_px = _quality_on_views(views, models, obj_ids, known & ~bad_obj, poses, opt, imgs)
     stats["view_contour_px"] = [round(float(x), 3) for x in view_px]

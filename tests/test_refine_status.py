@@ -258,3 +258,25 @@ def test_free_gauge_returns_the_world_of_the_first_camera(scene3, gauge):
     t_err_mm = [float(np.linalg.norm(res.poses[k][:3, 3] - gt[k][:3, 3])) for k in res.poses]
     # from 15.4 mm off: median 0.65 mm free, 1.01 registered, 0.52 with the first camera fixed; max 4.4
     assert np.median(t_err_mm) < 1.5, t_err_mm
+
+
+def test_reported_sigma_adds_the_systematic_floor_but_the_status_reads_the_covariance_part():
+    """calibrate_sigmas: per-view pose sigma = sqrt((factor x covariance sigma)^2 + floor^2) per
+    axis; the statistical part is kept for the status rule (a floor constant per clip type must not
+    turn every short-clip pose uncertain); world-frame groups get the factors only."""
+    from ycbvss.refine.confidence import calibrate_sigmas, sigma_floor, sigma_scale
+
+    for narrow in (True, False):
+        f, fl = np.array(sigma_scale(narrow)), np.array(sigma_floor(narrow))
+        raw_t, raw_r = np.array([0.05, 0.2, 1.0]), 0.03
+        sig = {"poses": {(0, 1): {"sigma_t_mm": raw_t.tolist(), "sigma_r_deg": raw_r}},
+               "objects": {1: {"sigma_t_mm": raw_t.tolist(), "sigma_r_deg": raw_r}}}
+        calibrate_sigmas(sig, narrow)
+        p, o = sig["poses"][(0, 1)], sig["objects"][1]
+        np.testing.assert_allclose(p["sigma_stat_t_mm"], f[:3] * raw_t, rtol=1e-12)
+        np.testing.assert_allclose(p["sigma_t_mm"], np.hypot(f[:3] * raw_t, fl[:3]), rtol=1e-12)
+        assert p["sigma_r_deg"] == pytest.approx(np.hypot(f[3] * raw_r, fl[3]), rel=1e-12)
+        np.testing.assert_allclose(o["sigma_t_mm"], f[:3] * raw_t, rtol=1e-12)
+        assert "sigma_stat_t_mm" not in o
+    # the floor is the measured depth bias scale: larger for narrow (short) clips than wide ones
+    assert sigma_floor(True)[2] > sigma_floor(False)[2] > 0.0

@@ -144,10 +144,10 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 "init_add_mm": float(E0["adds_mm"][n] if m.symmetric else E0["add_mm"][n]),
                 "init_prj_px": float(E0["prj_px"][n]),
                 # the covariance sigmas before calibration (the report applies the calibration)
-                "sigma_tx_mm": sp["sigma_t_mm"][0] / f[0] if sp else float("nan"),
-                "sigma_ty_mm": sp["sigma_t_mm"][1] / f[1] if sp else float("nan"),
-                "sigma_tz_mm": sp["sigma_t_mm"][2] / f[2] if sp else float("nan"),
-                "sigma_r_deg": sp["sigma_r_deg"] / f[3] if sp else float("nan"),
+                "sigma_tx_mm": sp["sigma_stat_t_mm"][0] / f[0] if sp else float("nan"),
+                "sigma_ty_mm": sp["sigma_stat_t_mm"][1] / f[1] if sp else float("nan"),
+                "sigma_tz_mm": sp["sigma_stat_t_mm"][2] / f[2] if sp else float("nan"),
+                "sigma_r_deg": sp["sigma_stat_r_deg"] / f[3] if sp else float("nan"),
                 "status": res.status.get(k, "failed"), "confidence": float(res.confidence.get(k, 0.0)),
                 "contour_px": float(res.quality.get(oid, {}).get("contour_px", float("nan"))),
                 "time_s": dt, "n_frames": len(sc.frames)})
