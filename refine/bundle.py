@@ -25,7 +25,7 @@ from .jacobians import backproject_px, project_points
 from .init import initialise, sample_model_points
 from .matching import (FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow,
                        residual_flow_pair)
-from .problem import BundleProblem, View
+from .problem import BundleProblem, View, model_moments
 from .solver import SolverOptions, covariance, run_lm
 from .templates import (composite, ensure_meshes, get_renderer, mesh_key, object_mask, render_view, select_edge_samples,
                         view_edge_candidates)
@@ -176,6 +176,8 @@ class _Stage:
         self.term_views, self.pairs, self.name = term_views, temporal_pairs, name
         self.renderer = get_renderer()
         ensure_meshes(self.renderer, {oid: models[oid] for oid in pb.obj_ids})
+        if pb.obj_moments is None:       # the solver's ridge on objects in mm of model-point motion
+            pb.obj_moments = [_moments_of(models[oid]) for oid in pb.obj_ids]
         self.rng = np.random.default_rng(opt.seed)
         self._norm: dict[int, np.ndarray] = {}
         self._me: dict[int, np.ndarray] = {}
@@ -539,6 +541,17 @@ class _Stage:
 
 
 _VIEW_POOL: tuple[int, ThreadPoolExecutor] | None = None   # (owning pid, executor)
+
+
+_MOMENTS: dict = {}
+
+
+def _moments_of(model) -> tuple[np.ndarray, np.ndarray]:
+    """Centroid and covariance (mm) of a model's vertices (cached per model object)."""
+    key = id(model)
+    if key not in _MOMENTS or _MOMENTS[key][0] is not model:
+        _MOMENTS[key] = (model, model_moments(model.vertices_mm))
+    return _MOMENTS[key][1]
 
 
 def _view_pool() -> ThreadPoolExecutor:

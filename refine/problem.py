@@ -37,6 +37,10 @@ class BundleProblem:
     T_m: np.ndarray
     cam_free: np.ndarray = field(default=None)    # (n,) bool; default: all but view 0
     obj_free: np.ndarray = field(default=None)    # (m,) bool
+    # per object: (centroid (3,) mm, covariance (3, 3) mm^2) of its model points in the model frame;
+    # when set, the solver's ridge on an object block is measured by how far a step moves the
+    # object's points (:meth:`object_ridges`), not in the world-origin se(3) coordinates
+    obj_moments: list | None = field(default=None)
 
     def __post_init__(self):
         n, m = len(self.views), len(self.obj_ids)
@@ -90,5 +94,39 @@ class BundleProblem:
             if b >= 0:
                 self.T_m[j] = exp_se3(delta[b]) @ self.T_m[j]
 
+    def object_ridges(self) -> list[tuple[int, np.ndarray]]:
+        """Per free object block b: Q (6, 6) with delta^T Q delta = the mean squared displacement
+        (mm^2) of the object's model points under the left increment delta = (v, w) of its block
+        (first order: a world point X moves by v + w x X). With c, C the points' centroid and
+        covariance in the world: |v + w x c|^2 + w^T (tr(C) I - C) w. A translation is charged by
+        its length, a turn by what it moves the object's points -- independent of how far the
+        object is from the world origin (the first camera). Empty without ``obj_moments``."""
+        if self.obj_moments is None:
+            return []
+        out = []
+        for j, b in enumerate(self.obj_block):
+            if b < 0:
+                continue
+            c_m, C_m = self.obj_moments[j]
+            R, t = self.T_m[j][:3, :3], self.T_m[j][:3, 3]
+            c, C = R @ c_m + t, R @ C_m @ R.T
+            A = np.hstack([np.eye(3), -_hat(c)])          # centroid displacement v + w x c = A delta
+            Q = A.T @ A
+            Q[3:, 3:] += np.trace(C) * np.eye(3) - C
+            out.append((int(b), Q))
+        return out
+
     def camera_centre(self, i: int) -> np.ndarray:
         return inv_T(self.T_c[i])[:3, 3]
+
+
+def _hat(c: np.ndarray) -> np.ndarray:
+    """Cross-product matrix: _hat(c) @ w = c x w."""
+    return np.array([[0.0, -c[2], c[1]], [c[2], 0.0, -c[0]], [-c[1], c[0], 0.0]])
+
+
+def model_moments(points_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centroid (3,), covariance (3, 3)) of model points (N, 3) mm, for ``obj_moments``."""
+    P = np.asarray(points_mm, np.float64)
+    c = P.mean(0)
+    return c, np.cov((P - c).T, bias=True)
