@@ -29,19 +29,18 @@ import numpy as np
 from ycbvss.pipeline.suite import build_suite, clips_of, suite_models
 from ycbvss.pipeline.suite_report import SIGMA_AXES, row_sigmas, split_visible, visibility, write_report
 from ycbvss.pipeline.suite_run import Run, execute, read_rows
-from ycbvss.refine.confidence import sigma_floor, sigma_scale
+from ycbvss.refine.confidence import sigma_floor, sigma_scale, total_sigma
 
 
-def _factor_for_90(rows: list[dict], axis: int, k: float) -> float:
-    """The factor f on an axis' raw covariance sigma for which k * sqrt((f sigma)^2 + floor^2)
-    covers 90 % of ``rows`` (bisection; 0 when the floor alone covers them)."""
-    e, _ = SIGMA_AXES[axis]
+def _factor_for_90(rows: list[dict], axis: int, floor: float, k: float) -> float:
+    """The factor f on an axis' raw covariance sigma (as the rows hold it) for which
+    k * sqrt((f sigma)^2 + floor^2) covers 90 % of ``rows`` (bisection; 0 when the floor alone
+    covers them)."""
+    e, s = SIGMA_AXES[axis]
     err = np.array([r[e] for r in rows], float)
-    sig1 = np.array([row_sigmas(r, True, factors=(1.0, 1.0, 1.0, 1.0)) for r in rows], float)[:, axis]
-    flo = np.array([row_sigmas(r, True, factors=(0.0, 0.0, 0.0, 0.0)) for r in rows], float)[:, axis]
-    raw = np.sqrt(np.maximum(sig1 ** 2 - flo ** 2, 0.0))
+    raw = np.array([r[s] for r in rows], float)
     ok = np.isfinite(err) & np.isfinite(raw)
-    share = lambda f: float(np.mean(err[ok] <= k * np.sqrt((f * raw[ok]) ** 2 + flo[ok] ** 2)))
+    share = lambda f: float(np.mean(err[ok] <= k * total_sigma(f * raw[ok], floor)))
     if not ok.any() or share(0.0) >= 0.9:
         return 0.0
     lo, hi = 0.0, 1.0
@@ -76,7 +75,7 @@ def sigma_fit(rows: list[dict], k: float = 2.0) -> dict:
         ho = [r for r in sel if r["held_out"]]
         if not dev:
             continue
-        fit = [_factor_for_90(dev, a, k) for a in range(len(SIGMA_AXES))]
+        fit = [_factor_for_90(dev, a, sigma_floor(narrow)[a], k) for a in range(len(SIGMA_AXES))]
         rec = {"fit": fit, "current": list(sigma_scale(narrow)), "floor": list(sigma_floor(narrow)),
                "n_dev": len(dev), "n_held_out": len(ho)}
         for lab, rs in (("dev", dev), ("held_out", ho)):

@@ -189,7 +189,7 @@ class _Stage:
         self.term_views, self.pairs, self.name = term_views, temporal_pairs, name
         self.renderer = get_renderer()
         ensure_meshes(self.renderer, {oid: models[oid] for oid in pb.obj_ids})
-        self._moments = [_moments_of(models[oid]) for oid in pb.obj_ids] if opt.object_ridge else None
+        self._moments = [model_moments(models[oid].vertices_mm) for oid in pb.obj_ids] if opt.object_ridge else None
         if opt.object_ridge is True and pb.obj_moments is None:   # the solver's ridge on objects in mm of point motion
             pb.obj_moments = self._moments
         self.rng = np.random.default_rng(opt.seed)
@@ -557,17 +557,6 @@ class _Stage:
 
 
 _VIEW_POOL: tuple[int, ThreadPoolExecutor] | None = None   # (owning pid, executor)
-
-
-_MOMENTS: dict = {}
-
-
-def _moments_of(model) -> tuple[np.ndarray, np.ndarray]:
-    """Centroid and covariance (mm) of a model's vertices (cached per model object)."""
-    key = id(model)
-    if key not in _MOMENTS or _MOMENTS[key][0] is not model:
-        _MOMENTS[key] = (model, model_moments(model.vertices_mm))
-    return _MOMENTS[key][1]
 
 
 def _view_pool() -> ThreadPoolExecutor:
