@@ -89,6 +89,7 @@ class RefineOptions:
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
     edge_linear: bool = False         # edge field of the linear-light image (sRGB decoded), see refine.edge.srgb_to_linear
     edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
+    edge_rim_depth: bool = True       # contour samples lifted at the rim's depth (chord midpoint, refine.edge.rim_depth), not the contour pixel's
     edge_appearance: bool = False     # ... moved by what the template's texture and the image's background predict, at the finest blur level
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
@@ -229,7 +230,8 @@ class _Stage:
         v = pb.views[i]
         t0 = time.perf_counter()
         vr = render_view(self.renderer, self.models, pb.obj_ids, v.K, v.width, v.height,
-                         {j: pb.pose(i, j) for j in range(len(pb.obj_ids)) if pb.obj_known[j]})
+                         {j: pb.pose(i, j) for j in range(len(pb.obj_ids)) if pb.obj_known[j]},
+                         back=self.opt.edge_rim_depth)
         self._t("render_s", time.perf_counter() - t0)
         return vr
 

@@ -216,6 +216,7 @@ def sample_field(field: EdgeField, uv: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 # ---------------------------------------------------------------- template edge points
 _N4 = ((0, 1), (0, -1), (1, 0), (-1, 0))
+MAX_RIM_CHORD_MM = 40.0   # longer chords at a contour pixel crossed a concavity: no rim depth from them
 
 
 def contour_points(inst: np.ndarray, depth: np.ndarray, label: int) -> tuple[np.ndarray, np.ndarray]:
@@ -267,15 +268,18 @@ def _contour_points(inst, depth, label, full_shape, origin):
 
 
 def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 25.0,
-                 depth_jump_rel: float = 0.03, inst: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 depth_jump_rel: float = 0.03, inst: np.ndarray | None = None,
+                 with_jumps: bool = False) -> tuple[np.ndarray, ...]:
     """Geometric edges of a rendered template (H, W) bool: the normal turns by more than
     ``min_angle_deg`` (>= 180: folds off, self-occlusions only) or the depth jumps (self-occlusion)
     towards the right/lower neighbour; the
     edge is marked on the nearer pixel with an offset (H, W, 2) of half a pixel towards the other
     one (the edge lies between the pixel centres). These are the shading/crease edges a photo
-    shows even on textureless objects (box edges, a mug's rim)."""
+    shows even on textureless objects (box edges, a mug's rim). ``with_jumps``: also return the
+    (H, W) bool mask of the edges that are depth jumps (self-occlusion rims), not folds."""
     H, W = depth.shape
     out = np.zeros((H, W), bool)
+    jumps = np.zeros((H, W), bool)
     off = np.zeros((H, W, 2), np.float32)
     c = np.cos(np.radians(min_angle_deg))
     for dv, du in ((0, 1), (1, 0)):
@@ -295,7 +299,10 @@ def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 2
         out[dv:, du:] |= b
         off[: H - dv, : W - du][a] = (0.5 * du, 0.5 * dv)
         off[dv:, du:][b] = (-0.5 * du, -0.5 * dv)
-    return out, off
+        if with_jumps:
+            jumps[: H - dv, : W - du] |= a & jump
+            jumps[dv:, du:] |= b & jump
+    return (out, off, jumps) if with_jumps else (out, off)
 
 
 def subpixel_offsets(gray: np.ndarray, v: np.ndarray, u: np.ndarray, sigma_px: float = 1.0) -> np.ndarray:
@@ -363,8 +370,14 @@ def _labels_box(inst: np.ndarray, margin_px: int) -> tuple[int, int, int, int] |
             min(ys[-1] + margin_px + 1, H), min(xs[-1] + margin_px + 1, W))
 
 
-def all_contour_points(inst: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,)."""
+def all_contour_points(inst: np.ndarray, depth: np.ndarray, back_depth: np.ndarray | None = None,
+                       back_inst: np.ndarray | None = None, max_chord_mm: float = MAX_RIM_CHORD_MM
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,).
+
+    With ``back_depth`` / ``back_inst`` (the nearest back faces, see
+    :attr:`ycbvss.render.RenderOutput.back_depth_mm`) the depth of a contour sample is the rim's
+    (:func:`rim_depth`), not the depth of the surface at the contour pixel's centre."""
     box = _labels_box(inst, 1)
     if box is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
@@ -397,14 +410,37 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray,
     n = np.linalg.norm(d, axis=1, keepdims=True)
     d = np.where(n > 0, d / np.maximum(n, 1e-9), 0.0)
     uv = np.stack([u + x0, v + y0], 1).astype(np.float64) + 0.5 * d
-    return uv, dc[v, u].astype(np.float64), ic[v, u].astype(int)
+    z = dc[v, u].astype(np.float64)
+    if back_depth is not None and back_inst is not None:
+        z = rim_depth(z, back_depth[y0:y1, x0:x1][v, u], back_inst[y0:y1, x0:x1][v, u] == ic[v, u], max_chord_mm)
+    return uv, z, ic[v, u].astype(int)
+
+
+def rim_depth(front_mm: np.ndarray, back_mm: np.ndarray, same_object: np.ndarray,
+              max_chord_mm: float = MAX_RIM_CHORD_MM) -> np.ndarray:
+    """Depth (mm) of the rim -- where the viewing ray grazes the surface -- seen at contour pixels
+    whose ray enters the object at ``front_mm`` and leaves it at ``back_mm``: the chord's midpoint.
+
+    The surface at a contour pixel's centre lies up to a pixel inside the silhouette, where a
+    rounded side has already turned towards the camera: its depth is 1-10 mm nearer than the rim
+    the silhouette belongs to (YCB-V objects at 1 m, 640 px), and a model point lifted there turns
+    with the object about a lever arm the rim does not have. For a locally circular cross-section
+    the midpoint of any chord parallel to the tangent ray lies at the tangent point's depth; for a
+    convex smooth one it tends to it as the chord shrinks. Where the ray leaves through another
+    object (``same_object`` False), not at all, or after a chord longer than ``max_chord_mm`` (it
+    crossed a concavity), the front depth is kept."""
+    ok = same_object & (back_mm > front_mm) & (back_mm - front_mm <= max_chord_mm)
+    return np.where(ok, 0.5 * (front_mm + back_mm), front_mm)
 
 
 def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, normal: np.ndarray | None,
                         canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2,
-                        fold_min_angle_deg: float = 25.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        fold_min_angle_deg: float = 25.0, back_depth: np.ndarray | None = None,
+                        back_inst: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,).
-    ``normal`` None: no crease edges; ``fold_min_angle_deg``: see :func:`crease_edges`."""
+    ``normal`` None: no crease edges; ``fold_min_angle_deg``: see :func:`crease_edges`. With
+    ``back_depth`` / ``back_inst`` a self-occlusion edge (a depth jump within the object, the near
+    part's rim) is lifted at the rim's depth (:func:`rim_depth`), as the exterior contour."""
     box = _labels_box(inst, 2)
     if box is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
@@ -419,11 +455,16 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     uv = np.stack([u, v], 1).astype(np.float64) + subpixel_offsets(gray, v, u)
     dep, labs = depth[v + y0, u + x0], ic[v, u]
     if normal is not None:
-        ce, off = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1], min_angle_deg=fold_min_angle_deg,
-                               inst=ic)
+        ce, off, jumps = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1], min_angle_deg=fold_min_angle_deg,
+                                      inst=ic, with_jumps=True)
         ce &= inside & ~edges
         v2, u2 = np.nonzero(ce)
+        d2 = depth[v2 + y0, u2 + x0].astype(np.float64)
+        if back_depth is not None and back_inst is not None:
+            jv = jumps[v2, u2]
+            d2[jv] = rim_depth(d2[jv], back_depth[v2[jv] + y0, u2[jv] + x0],
+                               back_inst[v2[jv] + y0, u2[jv] + x0] == ic[v2[jv], u2[jv]])
         uv = np.concatenate([uv, np.stack([u2, v2], 1) + off[v2, u2]])
-        dep = np.concatenate([dep, depth[v2 + y0, u2 + x0]])
+        dep = np.concatenate([dep, d2])
         labs = np.concatenate([labs, ic[v2, u2]])
     return uv + (x0, y0), dep.astype(np.float64), labs.astype(int)

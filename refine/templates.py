@@ -47,6 +47,8 @@ class ViewRender:
     poses: list[np.ndarray]
     obj_index: list[int]
     normal: np.ndarray | None = None
+    back_depth_mm: np.ndarray | None = None
+    back_instance: np.ndarray | None = None
 
     def label_of(self, j: int) -> int:
         return self.obj_index.index(j) + 1 if j in self.obj_index else -1
@@ -56,8 +58,9 @@ class ViewRender:
 
 
 def render_view(renderer, models: dict, obj_ids: list[int], K: np.ndarray, width: int, height: int,
-                poses: dict[int, np.ndarray]) -> ViewRender:
-    """Render objects (index j -> pose) in front of the camera; others are skipped."""
+                poses: dict[int, np.ndarray], back: bool = False) -> ViewRender:
+    """Render objects (index j -> pose) in front of the camera; others are skipped. ``back``: also
+    the nearest back faces (``back_depth_mm`` / ``back_instance``, for the contour's rim depth)."""
     items, used, P = [], [], []
     for j, T in poses.items():
         if not np.all(np.isfinite(T)) or T[2, 3] <= 10.0:
@@ -69,8 +72,10 @@ def render_view(renderer, models: dict, obj_ids: list[int], K: np.ndarray, width
     if not items:
         return ViewRender(np.zeros((height, width), np.int32), np.zeros((height, width), np.float32),
                           np.zeros((height, width, 3), np.uint8), [], [])
-    out = renderer.render(K, width, height, items, outputs=("depth", "instance", "color", "normal"))
-    return ViewRender(out.instance, out.depth_mm, out.color, P, used, out.normal_cam)
+    outs = ("depth", "instance", "color", "normal") + (("back_depth",) if back else ())
+    out = renderer.render(K, width, height, items, outputs=outs)
+    return ViewRender(out.instance, out.depth_mm, out.color, P, used, out.normal_cam,
+                      out.back_depth_mm, out.back_instance)
 
 
 def edge_samples(vr: ViewRender, j: int, K: np.ndarray, n_max: int, rng: np.random.Generator,
@@ -119,7 +124,7 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     outside the contour pixels. ``image`` (with ``blur_sigma_px``): also move them by what the
     template's texture and the image's background beside them predict
     (:func:`ycbvss.refine.contour_match.appearance_offsets`)."""
-    uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm)
+    uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance)
     if blur_sigma_px is not None:
         geo = uv_c
         uv_c = match_contour_to_blur(uv_c, l_c, vr.instance, blur_sigma_px)
@@ -127,7 +132,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
             off, n = appearance_offsets(geo, l_c, vr.instance, vr.color, image, blur_sigma_px)
             uv_c = uv_c + off[:, None] * n
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal if creases else None,
-                                         erode_px=erode_px, fold_min_angle_deg=fold_min_angle_deg)
+                                         erode_px=erode_px, fold_min_angle_deg=fold_min_angle_deg,
+                                         back_depth=vr.back_depth_mm, back_inst=vr.back_instance)
     return EdgeCandidates(uv_c, d_c, l_c, uv_i, d_i, l_i)
 
 

@@ -38,7 +38,7 @@ from .texture import (
     spatial_order,
 )
 
-OUTPUTS = ("depth", "instance", "normal", "color", "mask_all")
+OUTPUTS = ("depth", "instance", "normal", "color", "mask_all", "back_depth")
 GREY = 0.6
 
 
@@ -51,7 +51,10 @@ class RenderOutput:
     the camera frame, interpolated smooth vertex normals (seam duplicates merged), flipped towards the camera
     on back faces of open meshes, 0 on background; ``color`` (H, W, 3) uint8 RGB albedo (texture, vertex
     colour or grey 0.6; 0 on background); ``masks_all`` / ``depth_all_mm``:
-    per-item unoccluded silhouettes (bool) and depths (float32, 0 outside), with ``"mask_all"``.
+    per-item unoccluded silhouettes (bool) and depths (float32, 0 outside), with ``"mask_all"``;
+    ``back_depth_mm`` / ``back_instance``: camera z (mm) and item (k+1) of the nearest *back-facing*
+    surface of each pixel (front faces culled; 0 where none), with ``"back_depth"``: where a ray enters an
+    object at ``depth_mm`` it leaves it at ``back_depth_mm`` (closed meshes).
     """
 
     depth_mm: np.ndarray | None = None
@@ -60,6 +63,8 @@ class RenderOutput:
     color: np.ndarray | None = None
     masks_all: list[np.ndarray] | None = None
     depth_all_mm: list[np.ndarray] | None = None
+    back_depth_mm: np.ndarray | None = None
+    back_instance: np.ndarray | None = None
 
     @property
     def mask(self) -> np.ndarray | None:
@@ -313,7 +318,7 @@ class Renderer:
         """Render ``items`` = [(mesh key, T_m2c 4x4 mm), ...] with one z-buffer (mutual occlusion).
 
         ``outputs`` any of "depth", "instance", "normal", "color", "mask_all" (per-item unoccluded silhouettes
-        and depths, rendered one item at a time).  ``scales``: per-item uniform scale about the model origin.
+        and depths, rendered one item at a time), "back_depth" (nearest back faces, a second pass).  ``scales``: per-item uniform scale about the model origin.
         ``shade`` in [0, 1]: 0 = unlit albedo colour, >0 mixes in a headlight Lambert term.
         """
         if self._pid != os.getpid():
@@ -334,6 +339,10 @@ class Renderer:
                              read=want_main)
             out.depth_mm, out.instance = res.get("depth"), res.get("instance")
             out.normal_cam, out.color = res.get("normal"), res.get("color")
+        if "back_depth" in outs:
+            res = self._draw(P, width, height, items, mvs, rots, visible, with_color=False, with_normal=False,
+                             shade=0.0, read={"depth", "instance"}, cull_front=True)
+            out.back_depth_mm, out.back_instance = res["depth"], res["instance"]
         if "mask_all" in outs:
             out.masks_all, out.depth_all_mm = [], []
             for k in range(len(items)):
@@ -410,10 +419,11 @@ class Renderer:
         g = self._meshes[key]
         return float(np.linalg.norm(mv[:3, :3] @ g.centre + mv[:3, 3])) < g.radius * scale + znear_mm
 
-    def _draw(self, P, width, height, items, mvs, rots, which, with_color, with_normal, shade, read) -> dict:
+    def _draw(self, P, width, height, items, mvs, rots, which, with_color, with_normal, shade, read,
+              cull_front: bool = False) -> dict:
         """Draw the items ``which`` into a cleared framebuffer of ``width`` x ``height`` and read back the
         outputs named in ``read`` (depth (H, W) float32 mm, instance (H, W) int32, colour (H, W, 3)
-        uint8, normal (H, W, 3) float32)."""
+        uint8, normal (H, W, 3) float32). ``cull_front``: draw back faces only (every mesh)."""
         ctx = self.ctx
         fb = self._fbo(width, height, with_color, with_normal)
         fbo = fb["fbo"]
@@ -423,7 +433,7 @@ class Renderer:
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
         ctx.disable(moderngl.BLEND)
-        ctx.cull_face = "back"
+        ctx.cull_face = "front" if cull_front else "back"
         culling, front = None, None
 
         prog = self._program(with_color, with_normal)
@@ -449,6 +459,8 @@ class Renderer:
             cull = g.cull if self.cull_back_faces == "auto" else self.cull_back_faces
             if k in self._nocull:
                 cull = False
+            if cull_front:
+                cull = True
             if cull != culling:
                 (ctx.enable if cull else ctx.disable)(moderngl.CULL_FACE)
                 culling = cull
