@@ -14,7 +14,8 @@ subset of ``ycbvss validate --suite ycbv21`` one chooses, e.g. the ablation on o
 ``report`` writes what :func:`ycbvss.pipeline.suite_report.write_report` writes (per-object,
 held-out, bias, status, coverage, ablation tables; objects < 10 % visible apart) and prints the
 per-axis sigma calibration factors that 2 sigma (with the systematic floor) needs to cover 90 % of
-the development poses (narrow: short clips; wide: medium and long), with the coverage they and the current ones give on
+the development poses per baseline group (narrow: short clips, medium, wide: long), with the coverage they and the
+current ones give on
 the development and the held-out poses.
 """
 from __future__ import annotations
@@ -27,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from ycbvss.pipeline.suite import build_suite, clips_of, suite_models
-from ycbvss.pipeline.suite_report import SIGMA_AXES, row_sigmas, split_visible, visibility, write_report
+from ycbvss.pipeline.suite_report import KIND_GROUP, SIGMA_AXES, row_sigmas, split_visible, visibility, write_report
 from ycbvss.pipeline.suite_run import Run, execute, read_rows
-from ycbvss.refine.confidence import sigma_floor, sigma_scale, total_sigma
+from ycbvss.refine.confidence import BASELINE_GROUPS, sigma_floor, sigma_scale, total_sigma
 
 
 def _factor_for_90(rows: list[dict], axis: int, floor: float, k: float) -> float:
@@ -63,23 +64,23 @@ def _covered_share(rows: list[dict], factors: tuple, k: float) -> list[float]:
 
 
 def sigma_fit(rows: list[dict], k: float = 2.0) -> dict:
-    """Per group (narrow, wide): the per-axis factors on the raw covariance sigmas that, with the
+    """Per baseline group (narrow: short clips, medium, wide: long clips): the per-axis factors on the raw covariance sigmas that, with the
     systematic floor of :func:`ycbvss.refine.confidence.sigma_floor` added in quadrature, make
     ``k`` sigma cover 90 % of the development poses (paper init, all terms), and the coverage of the
     current and of those factors on the development and held-out poses."""
     rows = [r for r in rows if r["init"] == "paper" and r["variant"] == "using all"]
     out = {}
-    for g, narrow in (("narrow", True), ("wide", False)):
-        sel = [r for r in rows if (r["kind"] == "short") == narrow]
+    for g in BASELINE_GROUPS:
+        sel = [r for r in rows if KIND_GROUP[r["kind"]] == g]
         dev = [r for r in sel if not r["held_out"]]
         ho = [r for r in sel if r["held_out"]]
         if not dev:
             continue
-        fit = [_factor_for_90(dev, a, sigma_floor(narrow)[a], k) for a in range(len(SIGMA_AXES))]
-        rec = {"fit": fit, "current": list(sigma_scale(narrow)), "floor": list(sigma_floor(narrow)),
+        fit = [_factor_for_90(dev, a, sigma_floor(g)[a], k) for a in range(len(SIGMA_AXES))]
+        rec = {"fit": fit, "current": list(sigma_scale(g)), "floor": list(sigma_floor(g)),
                "n_dev": len(dev), "n_held_out": len(ho)}
         for lab, rs in (("dev", dev), ("held_out", ho)):
-            rec[f"coverage_current_{lab}"] = _covered_share(rs, tuple(sigma_scale(narrow)), k)
+            rec[f"coverage_current_{lab}"] = _covered_share(rs, tuple(sigma_scale(g)), k)
             rec[f"coverage_fit_{lab}"] = _covered_share(rs, tuple(fit), k)
         out[g] = rec
     return out

@@ -31,7 +31,7 @@ from .templates import (composite, ensure_meshes, get_renderer, mesh_key, object
                         view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_ncc, turn_transforms, turned_wrong
-from .confidence import calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_floor, sigma_scale
+from .confidence import baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm, sigma_floor, sigma_scale
 from .uncertainty import pose_sigmas
 
 
@@ -1303,11 +1303,13 @@ def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, imag
     poses, failed, bad_cam, bad_obj = _final_poses(views, obj_ids, known, T_c, T_m, init_poses, num_fail,
                                                    scene.scene_id)
     converged = converged and not failed
+    group = baseline_group(ks.narrow, stats["baseline_deg"])
     sigma = calibrate_sigmas(pose_sigmas(np.where(bad_cam[:, None, None], T_c_init, T_c),
                                          np.where(bad_obj[:, None, None], pb0.T_m, T_m), cam_cov, ks.obj_cov,
-                                         ks.cross, [v.im_id for v in views], obj_ids, known & ~bad_obj), ks.narrow)
-    stats["sigma_scale"] = list(sigma_scale(ks.narrow))
-    stats["sigma_floor"] = list(sigma_floor(ks.narrow))
+                                         ks.cross, [v.im_id for v in views], obj_ids, known & ~bad_obj), group)
+    stats["baseline_group"] = group
+    stats["sigma_scale"] = list(sigma_scale(group))
+    stats["sigma_floor"] = list(sigma_floor(group))
     t0 = time.perf_counter()
     quality, view_px = _quality_on_views(views, models, obj_ids, known & ~bad_obj, poses, opt, imgs)
     stats["view_contour_px"] = [round(float(x), 3) for x in view_px]

@@ -82,14 +82,18 @@ SIGMA_SCALE_NARROW = (2.6, 1.3, 1.3, 6.6)
 SIGMA_SCALE_WIDE = (1.0, 1.0, 1.0, 1.4)
 # Systematic error (tx, ty, tz mm in the camera frame, R deg) of a refined per-view pose that the
 # covariance cannot see: the cost's own bias (edge appearance and the scene scale it sets, lighting,
-# see README "Known limits"). Measured, not fitted to the coverage: the 68th percentile (1 sigma of
-# a half-normal) of the errors of poses refined from the exact ground truth on the ycbv21
-# development scenes (bias_short: scenes 1, 2, 4-7 seed 0, 336 poses; bias_medium + bias_long: the
-# same scenes' medium clips and long clips 1-2, 4060 poses), measured 2026-11-25 (code e8eed27):
-# narrow (0.149, 0.129, 1.145, 0.254), wide (0.104, 0.083, 0.581, 0.269). The covariance sigma and
-# this floor add in quadrature (independent error sources).
+# see README "Known limits"). It shrinks as the views spread: one floor per viewing-baseline group
+# (:func:`baseline_group`: narrow < ``RefineOptions.min_baseline_deg``, medium < ``WIDE_BASELINE_DEG``,
+# wide). Measured, not fitted to the coverage: the 68th percentile (1 sigma of a half-normal) of the
+# errors of poses refined from the exact ground truth on the ycbv21 development scenes, per group
+# (narrow: the short clips (6-7 deg) of scenes 1, 2, 4-7, seed 0; medium: their medium clips
+# (18-20 deg); wide: long clips 1-2 (60 deg)). The covariance sigma and this floor add in quadrature
+# (independent error sources).
 SIGMA_FLOOR_NARROW = (0.15, 0.13, 1.15, 0.25)
+SIGMA_FLOOR_MEDIUM = (0.12, 0.12, 0.93, 0.25)
 SIGMA_FLOOR_WIDE = (0.10, 0.08, 0.58, 0.27)
+WIDE_BASELINE_DEG = 35.0
+BASELINE_GROUPS = ("narrow", "medium", "wide")
 
 STATUSES = ("converged", "uncertain", "failed")
 
@@ -190,15 +194,31 @@ def shift_limit_px(init_scatter_px: float, width_px: int = REF_WIDTH_PX) -> floa
     return max(MAX_SHIFT_PX * width_px / REF_WIDTH_PX, SHIFT_SCATTER_K * float(init_scatter_px))
 
 
-def sigma_scale(narrow: bool) -> tuple[float, float, float, float]:
-    """The calibration factors (tx, ty, tz, R) for a narrow- or a wide-baseline bundle."""
-    return SIGMA_SCALE_NARROW if narrow else SIGMA_SCALE_WIDE
+def baseline_group(narrow: bool, baseline_deg: float) -> str:
+    """The viewing-baseline group of a bundle: "narrow" (refined as one viewpoint, see
+    ``RefineOptions.min_baseline_deg``), "medium" (baseline < ``WIDE_BASELINE_DEG``) or "wide"."""
+    if narrow:
+        return "narrow"
+    return "medium" if float(baseline_deg) < WIDE_BASELINE_DEG else "wide"
 
 
-def sigma_floor(narrow: bool) -> tuple[float, float, float, float]:
-    """The systematic per-view pose sigmas (tx, ty, tz mm, R deg) for a narrow- or a wide-baseline
-    bundle (``SIGMA_FLOOR_*``)."""
-    return SIGMA_FLOOR_NARROW if narrow else SIGMA_FLOOR_WIDE
+def _check_group(group: str) -> str:
+    if group not in BASELINE_GROUPS:
+        raise ValueError(f"baseline group must be one of {BASELINE_GROUPS}, got {group!r}")
+    return group
+
+
+def sigma_scale(group: str) -> tuple[float, float, float, float]:
+    """The calibration factors (tx, ty, tz, R) of a baseline group's covariance sigmas (medium and
+    wide share the wide factors)."""
+    return SIGMA_SCALE_NARROW if _check_group(group) == "narrow" else SIGMA_SCALE_WIDE
+
+
+def sigma_floor(group: str) -> tuple[float, float, float, float]:
+    """The systematic per-view pose sigmas (tx, ty, tz mm, R deg) of a baseline group
+    (``SIGMA_FLOOR_*``)."""
+    return {"narrow": SIGMA_FLOOR_NARROW, "medium": SIGMA_FLOOR_MEDIUM,
+            "wide": SIGMA_FLOOR_WIDE}[_check_group(group)]
 
 
 def total_sigma(stat: np.ndarray, floor: np.ndarray) -> np.ndarray:
@@ -206,15 +226,15 @@ def total_sigma(stat: np.ndarray, floor: np.ndarray) -> np.ndarray:
     return np.sqrt(np.asarray(stat, float) ** 2 + np.asarray(floor, float) ** 2)
 
 
-def calibrate_sigmas(sigma: dict, narrow: bool) -> dict:
-    """Apply the calibration :func:`sigma_scale` to every ``sigma_t_mm`` / ``sigma_r_deg`` entry of
+def calibrate_sigmas(sigma: dict, group: str) -> dict:
+    """Apply the calibration :func:`sigma_scale` of the baseline ``group`` to every ``sigma_t_mm`` / ``sigma_r_deg`` entry of
     a :func:`ycbvss.refine.uncertainty.pose_sigmas` result (in place; returned). Per-view poses
     (group ``poses``, camera frame) keep that statistical part as ``sigma_stat_t_mm`` /
     ``sigma_stat_r_deg`` and report the total with :func:`sigma_floor` added in quadrature; the
     world-frame groups (objects, cameras) get the factors only (the floor is a camera-frame
     measurement)."""
-    f = sigma_scale(narrow)
-    fl = sigma_floor(narrow)
+    f = sigma_scale(group)
+    fl = sigma_floor(group)
     for name, group in sigma.items():
         for rec in group.values():
             st = [float(v) * k for v, k in zip(rec["sigma_t_mm"], f[:3])]

@@ -264,22 +264,26 @@ def test_reported_sigma_adds_the_systematic_floor_but_the_status_reads_the_covar
     """calibrate_sigmas: per-view pose sigma = sqrt((factor x covariance sigma)^2 + floor^2) per
     axis; the statistical part is kept for the status rule (a floor constant per clip type must not
     turn every short-clip pose uncertain); world-frame groups get the factors only."""
-    from ycbvss.refine.confidence import calibrate_sigmas, sigma_floor, sigma_scale
+    from ycbvss.refine.confidence import baseline_group, calibrate_sigmas, sigma_floor, sigma_scale
 
-    for narrow in (True, False):
-        f, fl = np.array(sigma_scale(narrow)), np.array(sigma_floor(narrow))
+    for group in ("narrow", "medium", "wide"):
+        f, fl = np.array(sigma_scale(group)), np.array(sigma_floor(group))
         raw_t, raw_r = np.array([0.05, 0.2, 1.0]), 0.03
         sig = {"poses": {(0, 1): {"sigma_t_mm": raw_t.tolist(), "sigma_r_deg": raw_r}},
                "objects": {1: {"sigma_t_mm": raw_t.tolist(), "sigma_r_deg": raw_r}}}
-        calibrate_sigmas(sig, narrow)
+        calibrate_sigmas(sig, group)
         p, o = sig["poses"][(0, 1)], sig["objects"][1]
         np.testing.assert_allclose(p["sigma_stat_t_mm"], f[:3] * raw_t, rtol=1e-12)
         np.testing.assert_allclose(p["sigma_t_mm"], np.hypot(f[:3] * raw_t, fl[:3]), rtol=1e-12)
         assert p["sigma_r_deg"] == pytest.approx(np.hypot(f[3] * raw_r, fl[3]), rel=1e-12)
         np.testing.assert_allclose(o["sigma_t_mm"], f[:3] * raw_t, rtol=1e-12)
         assert "sigma_stat_t_mm" not in o
-    # the floor is the measured depth bias scale: larger for narrow (short) clips than wide ones
-    assert sigma_floor(True)[2] > sigma_floor(False)[2] > 0.0
+    # the floor is the measured depth bias scale: it shrinks as the views spread
+    assert sigma_floor("narrow")[2] > sigma_floor("medium")[2] > sigma_floor("wide")[2] > 0.0
+    assert [baseline_group(True, 60.0), baseline_group(False, 19.0), baseline_group(False, 60.0)] == \
+        ["narrow", "medium", "wide"]
+    with pytest.raises(ValueError):
+        sigma_floor("long")
 
 
 def test_the_ridge_does_not_stall_an_object_turning_about_its_own_centre():

@@ -88,15 +88,19 @@ def bias_table(rows: list[dict], models: dict, kind: str) -> Table:
     return t
 
 
+KIND_GROUP = {"short": "narrow", "medium": "medium", "long": "wide"}   # suite clip kind -> baseline group
+
+
 def _scale_of(r: dict, calibrated: bool) -> tuple:
     """The calibration factors the refiner applies to a row's clip: short clips (6-7 deg) are
-    narrow-baseline bundles, medium (20 deg) and long (60 deg) wide ones."""
-    return sigma_scale(r["kind"] == "short") if calibrated else (1.0, 1.0, 1.0, 1.0)
+    narrow-baseline bundles, medium (20 deg) and long (60 deg) share the wide factors."""
+    return sigma_scale(KIND_GROUP[r["kind"]]) if calibrated else (1.0, 1.0, 1.0, 1.0)
 
 
 def _floor_of(r: dict, calibrated: bool) -> tuple:
-    """The systematic sigma floor the refiner adds to a row's clip kind (0 uncalibrated)."""
-    return sigma_floor(r["kind"] == "short") if calibrated else (0.0, 0.0, 0.0, 0.0)
+    """The systematic sigma floor the refiner adds to a row's clip (its baseline group's; 0
+    uncalibrated)."""
+    return sigma_floor(KIND_GROUP[r["kind"]]) if calibrated else (0.0, 0.0, 0.0, 0.0)
 
 
 def row_sigmas(r: dict, calibrated: bool = True, factors: tuple | None = None) -> np.ndarray:
