@@ -89,7 +89,7 @@ class RefineOptions:
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
     edge_linear: bool = False         # edge field of the linear-light image (sRGB decoded), see refine.edge.srgb_to_linear
     edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
-    edge_rim_depth: bool = True       # contour samples lifted at the rim's depth (chord midpoint, refine.edge.rim_depth), not the contour pixel's
+    edge_rim_depth: bool = False      # contour samples lifted at the rim's depth (chord midpoint, refine.edge.rim_depth), not the contour pixel's
     edge_appearance: bool = False     # ... moved by what the template's texture and the image's background predict, at the finest blur level
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
@@ -139,7 +139,7 @@ class RefineOptions:
     # medium R 0.94 -> 1.93 deg. "finest" (this ridge at the finest blur level only): no silent pose,
     # long-2 seed 5 R 0.370 -> 0.185, but medium R 0.71 / 1.17 -> 1.02 / 1.62 (seeds 0 / 5): the
     # banana rests where f_edge puts it, 3.3-3.5 deg off (bench/results/ycbv21/README.md)
-    object_ridge: bool | str = False  # True: every level; "finest": the finest blur level only
+    object_ridge: bool | str = False  # True: every level; "finest": the finest blur level only; "narrow": narrow-baseline bundles only
     pose_tol_mm: float = 0.05         # converged: the last outer iteration moved no pose more than this
     pose_tol_deg: float = 0.02
     seed: int = 0
@@ -1195,6 +1195,8 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     # (edges of its neighbours merged into its own); from 4 px it stayed within 5 mm.
     stats["baseline_deg"] = round(viewing_baseline_deg(pb.T_c, pb.T_m[known]), 3)
     narrow = len(kf) == 1 or stats["baseline_deg"] < opt.min_baseline_deg
+    if opt.object_ridge == "narrow" and narrow:     # the point-motion ridge on a narrow-baseline bundle
+        pb.obj_moments = stage._moments
     base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
     terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
     if stage.free_gauge:
@@ -1228,6 +1230,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     better than before; otherwise the first result stands (those poses ``uncertain``).
     ``stats["turn_restart"]`` records what happened."""
     opt = options or RefineOptions()
+    if opt.object_ridge not in (False, True, "finest", "narrow"):
+        raise YcbvssError(f"RefineOptions.object_ridge must be False, True, 'finest' or 'narrow', got {opt.object_ridge!r}",
+                          where=f"scene {scene.scene_id}")
     if not (opt.turn_check and opt.turn_restart):
         return _refine_scene_once(scene, models, init, opt, images)[0]
     # the warnings of a pass are held back until it is known which pass's result is returned, so

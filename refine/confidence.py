@@ -79,6 +79,7 @@ MOVE_TOL_MM = 0.25
 # nearly identical views leave systematic errors the covariance does not see. Measured factors:
 # narrow (2.61, 1.29, 1.30, 6.55), wide (0.57, 0.36, 0.87, 1.37); the wide ones are floored at 1.
 SIGMA_SCALE_NARROW = (2.6, 1.3, 1.3, 6.6)
+SIGMA_SCALE_MEDIUM = (1.0, 1.0, 1.0, 1.4)
 SIGMA_SCALE_WIDE = (1.0, 1.0, 1.0, 1.4)
 # Systematic error (tx, ty, tz mm in the camera frame, R deg) of a refined per-view pose that the
 # covariance cannot see: the cost's own bias (edge appearance and the scene scale it sets, lighting,
@@ -209,9 +210,9 @@ def _check_group(group: str) -> str:
 
 
 def sigma_scale(group: str) -> tuple[float, float, float, float]:
-    """The calibration factors (tx, ty, tz, R) of a baseline group's covariance sigmas (medium and
-    wide share the wide factors)."""
-    return SIGMA_SCALE_NARROW if _check_group(group) == "narrow" else SIGMA_SCALE_WIDE
+    """The calibration factors (tx, ty, tz, R) of a baseline group's covariance sigmas."""
+    return {"narrow": SIGMA_SCALE_NARROW, "medium": SIGMA_SCALE_MEDIUM,
+            "wide": SIGMA_SCALE_WIDE}[_check_group(group)]
 
 
 def sigma_floor(group: str) -> tuple[float, float, float, float]:
