@@ -42,6 +42,8 @@ def test_subpixel_recovery_from_5px_init_textured_and_textureless(scene4):
     res = refine_scene(ps.scene, ps.models, init, RefineOptions(), images=imgs)
     assert isinstance(res, RefineResult)
     assert set(res.poses) == set(gt)
+    # a 30 deg arc: the medium sigma group, and no point-motion ridge by default (wide bundles)
+    assert res.stats["baseline_group"] == "medium" and res.stats["object_ridge"] is False
     textured = [o for o, m in ps.models.items() if not m.textureless]
     plain = [o for o, m in ps.models.items() if m.textureless]
     et, ep, ea = (_mean_err(res.poses, gt, pts, K, textured), _mean_err(res.poses, gt, pts, K, plain),
@@ -177,5 +179,7 @@ def test_viewing_baseline_decides_the_blur_schedule(scene4):
                        RefineOptions(max_iters=1, coarse_iters=1, extra_iters=0, compute_uncertainty=False),
                        images={f.im_id: imgs[f.im_id], f.im_id + 100: imgs[f.im_id]})
     assert res.stats["baseline_deg"] < 1.0
+    # a narrow bundle: its own sigma group, and (default object_ridge="narrow") the point-motion ridge
+    assert res.stats["baseline_group"] == "narrow" and res.stats["object_ridge"] is True
     assert sorted({r["stage"].split(" outer")[0] for r in res.log if r["stage"].startswith("keyframes")}) == \
         ["keyframes sigma=1", "keyframes sigma=2"]       # 320 px wide: (4, 2, 1) px levels scale to (2, 1)
