@@ -9,6 +9,7 @@ import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -194,9 +195,8 @@ class _Stage:
         self.term_views, self.pairs, self.name = term_views, temporal_pairs, name
         self.renderer = get_renderer()
         ensure_meshes(self.renderer, {oid: models[oid] for oid in pb.obj_ids})
-        self._moments = [model_moments(models[oid].vertices_mm) for oid in pb.obj_ids] if opt.object_ridge else None
         if opt.object_ridge is True and pb.obj_moments is None:   # the solver's ridge on objects in mm of point motion
-            pb.obj_moments = self._moments
+            pb.obj_moments = self.moments
         self.rng = np.random.default_rng(opt.seed)
         self._norm: dict[int, np.ndarray] = {}
         self._me: dict[int, np.ndarray] = {}
@@ -223,6 +223,12 @@ class _Stage:
         if i not in self._me:
             self._me[i] = min_eig_map(self.pb.views[i].image)
         return self._me[i]
+
+    @cached_property
+    def moments(self) -> list:
+        """Per object (centroid, covariance) of its model points (mm), for the point-motion ridge
+        (``RefineOptions.object_ridge``; computed only when a stage uses it)."""
+        return [model_moments(self.models[oid].vertices_mm) for oid in self.pb.obj_ids]
 
     def norm_image(self, i: int) -> np.ndarray:
         if i not in self._norm:
@@ -512,7 +518,7 @@ class _Stage:
             finest = li == len(sigmas) - 1 and len(sigmas) > 1
             self.fold_angle = 180.0 if (finest and not opt.folds_at_finest) else opt.fold_min_angle_deg
             if opt.object_ridge == "finest":     # the point-motion ridge at the finest blur level only
-                pb.obj_moments = self._moments if li == len(sigmas) - 1 else None
+                pb.obj_moments = self.moments if li == len(sigmas) - 1 else None
             t0 = time.perf_counter()
             fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_interp,
                                   opt.edge_colour, opt.edge_linear) for i in self.term_views}
@@ -1200,7 +1206,7 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     stats["baseline_deg"] = round(viewing_baseline_deg(pb.T_c, pb.T_m[known]), 3)
     narrow = len(kf) == 1 or stats["baseline_deg"] < opt.min_baseline_deg
     if opt.object_ridge == "narrow" and narrow:     # the point-motion ridge on a narrow-baseline bundle
-        pb.obj_moments = stage._moments
+        pb.obj_moments = stage.moments
     stats["object_ridge"] = opt.object_ridge in (True, "finest") or (opt.object_ridge == "narrow" and narrow)
     base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
     terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))

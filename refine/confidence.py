@@ -93,8 +93,8 @@ SIGMA_SCALE_WIDE = (1.0, 1.0, 1.0, 1.4)
 # (18-20 deg); wide: long clips 1-2 (60 deg)). Measured 2026-11-25: narrow (0.165, 0.142, 1.049,
 # 0.343; code f802699, the point-motion ridge on narrow bundles: it lets objects reach the cost's
 # biased rotation, 0.254 deg before), medium (0.119, 0.116, 0.927, 0.248; 1260 poses), wide (0.096,
-# 0.072, 0.487, 0.274; 2800 poses; both code e8eed27, the same code path as now). The covariance sigma and this floor add in
-# quadrature (independent error sources).
+# 0.072, 0.487, 0.274; 2800 poses; both code e8eed27, the same code path as now). The covariance
+# sigma and this floor add in quadrature (independent error sources).
 SIGMA_FLOOR_NARROW = (0.17, 0.14, 1.05, 0.34)
 SIGMA_FLOOR_MEDIUM = (0.12, 0.12, 0.93, 0.25)
 SIGMA_FLOOR_WIDE = (0.10, 0.07, 0.49, 0.27)
@@ -233,16 +233,16 @@ def total_sigma(stat: np.ndarray, floor: np.ndarray) -> np.ndarray:
 
 
 def calibrate_sigmas(sigma: dict, group: str) -> dict:
-    """Apply the calibration :func:`sigma_scale` of the baseline ``group`` to every ``sigma_t_mm`` / ``sigma_r_deg`` entry of
-    a :func:`ycbvss.refine.uncertainty.pose_sigmas` result (in place; returned). Per-view poses
+    """Apply the calibration :func:`sigma_scale` of the baseline ``group`` to every ``sigma_t_mm`` /
+    ``sigma_r_deg`` entry of a :func:`ycbvss.refine.uncertainty.pose_sigmas` result (in place; returned). Per-view poses
     (group ``poses``, camera frame) keep that statistical part as ``sigma_stat_t_mm`` /
     ``sigma_stat_r_deg`` and report the total with :func:`sigma_floor` added in quadrature; the
     world-frame groups (objects, cameras) get the factors only (the floor is a camera-frame
     measurement)."""
     f = sigma_scale(group)
     fl = sigma_floor(group)
-    for name, group in sigma.items():
-        for rec in group.values():
+    for name, recs in sigma.items():
+        for rec in recs.values():
             st = [float(v) * k for v, k in zip(rec["sigma_t_mm"], f[:3])]
             sr = float(rec["sigma_r_deg"]) * f[3]
             if name == "poses":

@@ -92,8 +92,8 @@ KIND_GROUP = {"short": "narrow", "medium": "medium", "long": "wide"}   # suite c
 
 
 def _scale_of(r: dict, calibrated: bool) -> tuple:
-    """The calibration factors the refiner applies to a row's clip: short clips (6-7 deg) are
-    narrow-baseline bundles, medium (20 deg) and long (60 deg) share the wide factors."""
+    """The calibration factors the refiner applies to a row's clip (its baseline group's: short
+    clips, 6-7 deg, are narrow bundles, medium 20 deg medium, long 60 deg wide; 1 uncalibrated)."""
     return sigma_scale(KIND_GROUP[r["kind"]]) if calibrated else (1.0, 1.0, 1.0, 1.0)
 
 
