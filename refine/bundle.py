@@ -39,6 +39,7 @@ from .uncertainty import pose_sigmas
 # blur levels (px at 640 px width) at which ``edge_appearance`` applies (the finest of (8, 4, 2, 1)): at coarser ones the background
 # beside a contour sample is no constant within the blur's reach
 APPEARANCE_MAX_SIGMA_PX = 1.5
+DILATION_MAX_SIGMA_PX = 1.5     # RefineOptions.edge_dilation_k acts at blur levels up to this (px at 640 wide): the finest
 
 
 @dataclass
@@ -92,6 +93,7 @@ class RefineOptions:
     edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
     edge_rim_depth: bool = False      # contour samples lifted at the rim's depth (chord midpoint, refine.edge.rim_depth), not the contour pixel's
     edge_appearance: bool = False     # ... moved by what the template's texture and the image's background predict, at the finest blur level
+    edge_dilation_k: float = 0.0      # > 0: a shared outward offset of each (view, object)'s contour samples is marginalised out of f_edge, its prior worth this many samples (refine.terms.EdgeTerm)
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     verify_coarse: bool = True        # undo an object's coarse-level move the next finer level's edges disagree with
@@ -281,17 +283,24 @@ class _Stage:
         blur = self._blur_match_sigma(fields)
         app = (opt.edge_appearance and blur is not None
                and blur <= APPEARANCE_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
+        level_sigma = next(iter(fields.values())).sigma_px if fields else 1.0
+        # the nuisance at the finest level only: the coarser levels keep the contour's full size
+        # information to pull a depth that starts centimetres off (paper init) into the basin
+        dil = (opt.edge_dilation_k > 0.0
+               and level_sigma <= DILATION_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
         jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
                                             fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur,
-                                            image=pb.views[i].image if app else None))
+                                            image=pb.views[i].image if app else None, normals=dil))
                 for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
         for i, vr, job in jobs:
-            for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, self.rng).items():
+            nrm: dict | None = {} if dil else None
+            for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, self.rng,
+                                            normals=nrm).items():
                 if (i, j) in vis and len(X):
-                    groups.append(EdgeGroup(i, j, X))
+                    groups.append(EdgeGroup(i, j, X, nrm.get(j) if nrm is not None else None))
         sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
         term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
-                        curv_floor=opt.edge_curv_floor / sig)
+                        curv_floor=opt.edge_curv_floor / sig, dilation_k=opt.edge_dilation_k if dil else 0.0)
         self._t("edge_sampling_s", time.perf_counter() - t0)
         return term
 

@@ -102,6 +102,23 @@ def match_contour_to_blur(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, 
     return out
 
 
+def contour_normals(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, sigma_px: float = 1.0) -> np.ndarray:
+    """Unit outward normals (N, 2) of the silhouettes ``inst == label`` at the contour samples uv
+    (N, 2) (px), from the Gaussian-blurred (``sigma_px``, at least 1 px) binary silhouette; zero
+    where the blurred silhouette is flat. Used by f_edge's contour-dilation nuisance
+    (:class:`ycbvss.refine.terms.EdgeTerm`)."""
+    out = np.zeros((len(uv), 2))
+    if len(uv) == 0:
+        return out
+    margin = int(np.ceil(3.0 * max(sigma_px, 1.0))) + 3
+    for lab in np.unique(labels):
+        sel = np.flatnonzero(labels == lab)
+        y0, x0, y1, x1 = _crop_box(uv[sel], inst.shape, margin)
+        mask_f = (inst[y0:y1, x0:x1] == lab).astype(np.float32) * 255.0
+        out[sel] = _outward_normals(mask_f, sigma_px, uv[sel] - (x0, y0))
+    return out
+
+
 # --- appearance of the contour -------------------------------------------------------------------
 #
 # The binary match above predicts where the edge field shows a silhouette whose inside is one flat

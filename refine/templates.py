@@ -10,7 +10,7 @@ import numpy as np
 
 from ..geometry.se3 import inv_T
 from ..render import Renderer
-from .contour_match import appearance_offsets, match_contour_to_blur
+from .contour_match import appearance_offsets, contour_normals, match_contour_to_blur
 from .edge import all_contour_points, all_interior_points, contour_points, interior_points, subsample
 from .jacobians import backproject_px
 
@@ -110,11 +110,12 @@ class EdgeCandidates:
     uv_i: np.ndarray
     d_i: np.ndarray
     l_i: np.ndarray
+    n_c: np.ndarray | None = None   # (N, 2) outward unit normals of the contour samples (``normals=True``)
 
 
 def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True,
                          fold_min_angle_deg: float = 25.0, blur_sigma_px: float | None = None,
-                         image: np.ndarray | None = None) -> EdgeCandidates:
+                         image: np.ndarray | None = None, normals: bool = False) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -123,7 +124,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     silhouette (:func:`ycbvss.refine.contour_match.match_contour_to_blur`); None: half a pixel
     outside the contour pixels. ``image`` (with ``blur_sigma_px``): also move them by what the
     template's texture and the image's background beside them predict
-    (:func:`ycbvss.refine.contour_match.appearance_offsets`)."""
+    (:func:`ycbvss.refine.contour_match.appearance_offsets`). ``normals``: also the contour
+    samples' outward normals (``n_c``, f_edge's contour-dilation nuisance)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance)
     if blur_sigma_px is not None:
         geo = uv_c
@@ -134,13 +136,16 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal if creases else None,
                                          erode_px=erode_px, fold_min_angle_deg=fold_min_angle_deg,
                                          back_depth=vr.back_depth_mm, back_inst=vr.back_instance)
-    return EdgeCandidates(uv_c, d_c, l_c, uv_i, d_i, l_i)
+    n_c = contour_normals(uv_c, l_c, vr.instance, blur_sigma_px or 1.0) if normals else None
+    return EdgeCandidates(uv_c, d_c, l_c, uv_i, d_i, l_i, n_c)
 
 
 def select_edge_samples(vr: ViewRender, K: np.ndarray, cands: EdgeCandidates, n_max: int,
-                        rng: np.random.Generator) -> dict[int, np.ndarray]:
+                        rng: np.random.Generator, normals: dict | None = None) -> dict[int, np.ndarray]:
     """Up to n_max model points (mm) per rendered object from a view's :class:`EdgeCandidates`:
-    interior edges (at most half) and contour (the rest), drawn with ``rng`` object by object."""
+    interior edges (at most half) and contour (the rest), drawn with ``rng`` object by object.
+    ``normals`` (a dict, filled when the candidates carry ``n_c``): object -> (N, 2) outward image
+    normals of its samples, zero rows for the interior ones (same order as the points)."""
     c = cands
     out = {}
     for lab0, j in enumerate(vr.obj_index):
@@ -155,6 +160,8 @@ def select_edge_samples(vr: ViewRender, K: np.ndarray, cands: EdgeCandidates, n_
         ok = d > 0
         Pinv = inv_T(vr.poses[lab0])
         out[j] = backproject_px(K, uv[ok], d[ok]) @ Pinv[:3, :3].T + Pinv[:3, 3]
+        if normals is not None and c.n_c is not None:
+            normals[j] = np.concatenate([c.n_c[sel_c], np.zeros((len(sel_i), 2))])[ok]
     return out
 
 

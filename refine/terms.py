@@ -67,6 +67,7 @@ class EdgeGroup:
     i: int          # view index
     j: int          # object index
     X: np.ndarray   # (N, 3) model points (mm)
+    N: np.ndarray | None = None   # (N, 2) outward image normals of the contour samples, zero rows for interior ones
 
 
 @dataclass
@@ -78,6 +79,12 @@ class EdgeTerm:
     weight: float = 1.0
     curv_floor: float = 0.0       # per-point curvature floor = curv_floor * |grad E| (bounds a point's step to ~1/curv_floor px)
     name: str = "edge"
+    # contour-dilation nuisance (> 0: on): every group with normals N gets a shared outward offset b
+    # (px) of its contour samples, minimised out of the cost with a quadratic prior whose curvature
+    # is ``dilation_k`` times the mean curvature of one contour sample along its normal, i.e. the
+    # contour's overall size is worth ``dilation_k`` samples, not all of them (see dilation_offsets)
+    dilation_k: float = 0.0
+    _priors: dict = field(default_factory=dict, repr=False)
 
     def n_obs(self) -> int:
         return int(sum(len(gr.X) for gr in self.groups))
@@ -91,10 +98,75 @@ class EdgeTerm:
         E = np.where(ok, E, 1.0)
         return E, grad, H, ok, Jc, Jo
 
+    def _dilated(self, gr: EdgeGroup) -> bool:
+        return self.dilation_k > 0.0 and gr.N is not None
+
+    def _surrogate(self, grad: np.ndarray, H: np.ndarray, scale: float) -> np.ndarray:
+        """The per-point pixel Hessians (N, 2, 2) of the Newton step: Hessian of E projected to
+        PSD plus the curvature floor, times ``scale``."""
+        gn = np.sqrt(grad[:, 0] * grad[:, 0] + grad[:, 1] * grad[:, 1])
+        A = psd2(H)
+        fl = self.curv_floor * gn
+        A[:, 0, 0] += fl
+        A[:, 1, 1] += fl
+        return A * scale
+
+    def _dilation_prior(self, gi: int, grad: np.ndarray, H: np.ndarray, nk: np.ndarray) -> float:
+        """Prior curvature on b (unweighted cost units): ``dilation_k`` times the mean curvature of
+        one contour sample along its normal at b = 0; fixed per group by :meth:`linearize` (the
+        cost between two linearisations uses the same one)."""
+        prior = self._priors.get(gi)
+        if prior is None:
+            A = self._surrogate(grad, H, 1.0)
+            m = int(np.count_nonzero(np.any(nk != 0.0, axis=1)))
+            prior = self.dilation_k * float(np.einsum("ni,nij,nj->", nk, A, nk)) / max(m, 1)
+            self._priors[gi] = prior
+        return prior
+
+    def _best_dilation(self, pb: BundleProblem, gi: int, gr: EdgeGroup, n_newton: int = 2, jac: bool = True):
+        """b (px) minimising sum_k E(uv_k + b n_k) + prior b^2 / 2 by ``n_newton`` Newton steps from
+        0 (b is a fraction of a pixel; E is smooth at its blur), and the field sampled at the
+        shifted samples: (b, prior, E, grad, H, ok, Jc, Jo) with ok the samples in the image at b = 0
+        (``jac=False``: Jc, Jo are None)."""
+        K = pb.views[gr.i].K
+        if jac:
+            uv, Jc, Jo, valid = object_point_jacobians(K, pb.T_c[gr.i], pb.T_m[gr.j], gr.X)
+        else:
+            (uv, valid), Jc, Jo = project_points(K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X), None, None
+        uv = np.where(valid[:, None], uv, -1e9)
+        fld = self.fields[gr.i]
+        E, grad, H, inside = sample_field(fld, uv)
+        ok = valid & inside
+        n = np.where(ok[:, None], gr.N, 0.0)
+        prior = self._dilation_prior(gi, grad[ok], H[ok], n[ok])
+        b = 0.0
+        for it in range(n_newton):
+            A = self._surrogate(grad[ok], H[ok], 1.0)
+            h_bb = float(np.einsum("ni,nij,nj->", n[ok], A, n[ok])) + prior
+            g_b = float(np.einsum("ni,ni->", grad[ok], n[ok])) + prior * b
+            if h_bb <= 1e-12:
+                break
+            b = float(np.clip(b - g_b / h_bb, -2.0, 2.0))
+            at = np.where(ok[:, None], uv + b * n, -1e9)
+            if jac or it < n_newton - 1:
+                E, grad, H, _ = sample_field(fld, at)
+            else:                        # the cost's last evaluation needs E only
+                E = sample_E(fld, at)
+        E = np.where(ok, E, 1.0)
+        return b, prior, E, grad, H, ok, Jc, Jo
+
+    def _dilation_cost(self, pb: BundleProblem, gi: int, gr: EdgeGroup) -> float:
+        """min over b of sum_k E(uv_k + b n_k) + prior b^2 / 2 (unweighted)."""
+        b, prior, E, *_ = self._best_dilation(pb, gi, gr, jac=False)
+        return float(E.sum()) + 0.5 * prior * b * b
+
     def cost(self, pb: BundleProblem) -> float:
         tot = 0.0
-        for gr in self.groups:
+        for gi, gr in enumerate(self.groups):
             f = self.fields[gr.i]
+            if self._dilated(gr):
+                tot += self._dilation_cost(pb, gi, gr)
+                continue
             if f.interp != "cubic":
                 uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
                 E = sample_E(f, np.where(valid[:, None], uv, -1e9))
@@ -107,21 +179,55 @@ class EdgeTerm:
 
     def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
         total, out = 0.0, []
-        for gr in self.groups:
-            E, grad, H, ok, Jc, Jo = self._eval(pb, gr, True)
-            total += float(E.sum())
+        self._priors = {}          # re-measured at this linearisation point (b = 0)
+        for gi, gr in enumerate(self.groups):
+            if self._dilated(gr):      # linearised where the nuisance rests (b*), b marginalised below
+                bst, prior, E, grad, H, ok, Jc, Jo = self._best_dilation(pb, gi, gr)
+                total += float(E.sum()) + 0.5 * prior * bst * bst
+            else:
+                E, grad, H, ok, Jc, Jo = self._eval(pb, gr, True)
+                total += float(E.sum())
             if not ok.any():
                 continue
+            nk = gr.N[ok] if self._dilated(gr) else None
             if not ok.all():       # (all valid is the common case: no copies then)
                 grad, H, Jc, Jo = grad[ok], H[ok], Jc[ok], Jo[ok]
-            gn = np.sqrt(grad[:, 0] * grad[:, 0] + grad[:, 1] * grad[:, 1])    # = np.linalg.norm(grad, axis=1)
-            A = psd2(H)
-            fl = self.curv_floor * gn
-            A[:, 0, 0] += fl
-            A[:, 1, 1] += fl
-            A *= self.weight
-            out.append(Linearization(int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j]), Jc, Jo, A, grad * self.weight))
+            A = self._surrogate(grad, H, self.weight)
+            a, b = int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j])
+            out.append(Linearization(a, b, Jc, Jo, A, grad * self.weight))
+            if nk is not None:
+                lin = self._dilation_schur(gi, a, b, Jc, Jo, A, grad * self.weight, nk, bst)
+                if lin is not None:
+                    out.append(lin)
         return self.weight * total, out
+
+    def _dilation_schur(self, gi: int, a: int, b: int, Jc: np.ndarray, Jo: np.ndarray, A: np.ndarray,
+                        g: np.ndarray, nk: np.ndarray, b_px: float) -> Linearization | None:
+        """The contour-dilation nuisance b marginalised out of one group's normal equations: with
+        u = sum_k J_k^T A_k n_k (12,), h_bb = sum_k n_k^T A_k n_k + prior and g_b = sum_k g_k . n_k,
+        the Schur complement adds -u u^T / h_bb to H and -u g_b / h_bb to the gradient -- written
+        as one pseudo-point whose Jacobian row is u and whose pixel Hessian is -1 / h_bb (the total
+        stays positive semi-definite: it is the Schur complement of a PSD system)."""
+        m = int(np.count_nonzero(np.any(nk != 0.0, axis=1)))
+        if m == 0:
+            return None
+        An = np.einsum("nij,nj->ni", A, nk)
+        h_data = float(np.einsum("ni,ni->", nk, An))
+        prior = self.weight * self._priors[gi]
+        h_bb = h_data + prior
+        if h_bb <= 1e-12:
+            return None
+        u_c = np.einsum("nik,ni->k", Jc, An)
+        u_o = np.einsum("nik,ni->k", Jo, An)
+        g_b = float(np.einsum("ni,ni->", g, nk)) + prior * b_px
+        Ja = np.zeros((1, 2, 6))
+        Jb = np.zeros((1, 2, 6))
+        Ja[0, 0], Jb[0, 0] = u_c, u_o
+        Ap = np.zeros((1, 2, 2))
+        Ap[0, 0, 0] = -1.0 / h_bb
+        gp = np.zeros((1, 2))
+        gp[0, 0] = -g_b / h_bb
+        return Linearization(a, b, Ja, Jb, Ap, gp)
 
     def mean_cost(self, pb: BundleProblem) -> float:
         n = self.n_obs()
