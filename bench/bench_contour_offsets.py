@@ -22,29 +22,26 @@ from pathlib import Path
 import numpy as np
 
 
-def main() -> None:
-    from ycbvss.io.bop import load_bop_scene
-    from ycbvss.pipeline.suite import build_suite
-    from ycbvss.eval.tables import Row, Table, write_table
-    from ycbvss.refine.contour_match import _minimum_along
-    from ycbvss.refine.edge import edge_field
-    from ycbvss.refine.templates import ensure_meshes, get_renderer, render_view, view_edge_candidates
-
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def add_view_args(ap: argparse.ArgumentParser) -> None:
+    """The suite frames a GT-view bench reads (shared with ``bench_match_scale.py``)."""
     ap.add_argument("--suite-root", required=True)
     ap.add_argument("--dataset", required=True)
     ap.add_argument("--scenes", default="1,2,4,5,6,7")
-    ap.add_argument("--frames", default="0,20,40", help="frame positions within each scene's rendered frames")
-    ap.add_argument("--sigma-px", type=float, default=1.0)
-    ap.add_argument("--min-samples", type=int, default=40)
-    ap.add_argument("--out", required=True)
-    a = ap.parse_args()
+    ap.add_argument("--frames", default="0,10,20,30", help="frame positions within each scene's rendered frames")
+
+
+def gt_views(a: argparse.Namespace):
+    """The chosen suite frames with their templates at the exact GT: yields (models, scene id,
+    frame, Cycles image, ViewRender of the fast renderer, object ids in label order)."""
+    from ycbvss.io.bop import load_bop_scene
+    from ycbvss.pipeline.suite import build_suite
+    from ycbvss.refine.templates import ensure_meshes, get_renderer, render_view
+
     root = Path(a.suite_root)
     scene_ids = [int(s) for s in a.scenes.split(",")]
     models, _ = build_suite(a.dataset, root, "ycbv21", scene_ids=scene_ids)
     r = get_renderer()
     ensure_meshes(r, models)
-    rows = []
     for sid in scene_ids:
         sc = load_bop_scene(root / "test", sid, models)
         for pos in [int(p) for p in a.frames.split(",")]:
@@ -55,19 +52,37 @@ def main() -> None:
             oids = [i.obj_id for i in fr.instances]
             vr = render_view(r, models, oids, cam.K, cam.width, cam.height,
                              {j: i.T_m2c for j, i in enumerate(fr.instances)})
-            c = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True)
-            fld = edge_field(fr.load_rgb(), a.sigma_px, colour=True)
-            for lab0, oid in enumerate(oids):
-                sel = np.flatnonzero((c.l_c == lab0 + 1) & np.any(c.n_c != 0.0, axis=1))
-                if len(sel) < a.min_samples:
-                    continue
-                t = _minimum_along(fld, c.uv_c[sel], c.n_c[sel], 1.5, 0.25)
-                t = t[np.abs(t) < 1.5 - 0.25]            # a minimum at the window's end: no edge found
-                if len(t) < a.min_samples:
-                    continue
-                med = float(np.median(t))
-                rows.append({"scene": sid, "im_id": fr.im_id, "obj_id": oid, "n": len(t), "shared_px": med,
-                             "scatter_px": float(1.4826 * np.median(np.abs(t - med)))})
+            yield models, sid, fr, fr.load_rgb(), vr, oids
+
+
+def main() -> None:
+    from ycbvss.eval.tables import Row, Table, write_table
+    from ycbvss.refine.contour_match import _minimum_along
+    from ycbvss.refine.edge import edge_field
+    from ycbvss.refine.templates import view_edge_candidates
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_view_args(ap)
+    ap.add_argument("--sigma-px", type=float, default=1.0)
+    ap.add_argument("--min-samples", type=int, default=40)
+    ap.add_argument("--out", required=True)
+    a = ap.parse_args()
+    rows = []
+    models: dict = {}
+    for models, sid, fr, img, vr, oids in gt_views(a):
+        c = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True)
+        fld = edge_field(img, a.sigma_px, colour=True)
+        for lab0, oid in enumerate(oids):
+            sel = np.flatnonzero((c.l_c == lab0 + 1) & np.any(c.n_c != 0.0, axis=1))
+            if len(sel) < a.min_samples:
+                continue
+            t = _minimum_along(fld, c.uv_c[sel], c.n_c[sel], 1.5, 0.25)
+            t = t[np.abs(t) < 1.5 - 0.25]            # a minimum at the window's end: no edge found
+            if len(t) < a.min_samples:
+                continue
+            med = float(np.median(t))
+            rows.append({"scene": sid, "im_id": fr.im_id, "obj_id": oid, "n": len(t), "shared_px": med,
+                         "scatter_px": float(1.4826 * np.median(np.abs(t - med)))})
     b = np.array([x["shared_px"] for x in rows])
     s = np.array([x["scatter_px"] for x in rows])
     sigma_b = float(np.sqrt(np.mean(b ** 2)))

@@ -21,53 +21,37 @@ import numpy as np
 
 
 def main() -> None:
+    from bench_contour_offsets import add_view_args, gt_views   # this folder (run as a script)
+
     from ycbvss.eval.tables import Row, Table, write_table
-    from ycbvss.io.bop import load_bop_scene
-    from ycbvss.pipeline.suite import build_suite
     from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches
     from ycbvss.refine.matching import min_eig_map
-    from ycbvss.refine.templates import composite, ensure_meshes, get_renderer, object_mask, render_view
+    from ycbvss.refine.templates import composite, object_mask
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--suite-root", required=True)
-    ap.add_argument("--dataset", required=True)
-    ap.add_argument("--scenes", default="1,2,4,5,6,7")
-    ap.add_argument("--frames", default="0,10,20,30", help="frame positions within each scene's rendered frames")
+    add_view_args(ap)
     ap.add_argument("--min-matches", type=int, default=30)
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     opt = RefineOptions()
-    root = Path(a.suite_root)
-    scene_ids = [int(s) for s in a.scenes.split(",")]
-    models, _ = build_suite(a.dataset, root, "ycbv21", scene_ids=scene_ids)
-    r = get_renderer()
-    ensure_meshes(r, models)
     rows = []
-    for sid in scene_ids:
-        sc = load_bop_scene(root / "test", sid, models)
-        for pos in [int(p) for p in a.frames.split(",")]:
-            if pos >= len(sc.frames):
+    models: dict = {}
+    for models, _, fr, img, vr, oids in gt_views(a):
+        objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
+        y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
+        raw = composite(vr, img, (y0, y1, x0, x1))
+        masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
+        matches = _view_matches(raw, img[y0:y1, x0:x1], masks, opt.flow, min_eig_map(img)[y0:y1, x0:x1])
+        for j, (xs, xd) in zip(objs, matches):
+            if len(xs) < a.min_matches:
                 continue
-            fr = sc.frames[pos]
-            cam, img = fr.camera, fr.load_rgb()
-            oids = [i.obj_id for i in fr.instances]
-            vr = render_view(r, models, oids, cam.K, cam.width, cam.height,
-                             {j: i.T_m2c for j, i in enumerate(fr.instances)})
-            objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
-            y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
-            raw = composite(vr, img, (y0, y1, x0, x1))
-            masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
-            matches = _view_matches(raw, img[y0:y1, x0:x1], masks, opt.flow, min_eig_map(img)[y0:y1, x0:x1])
-            for j, (xs, xd) in zip(objs, matches):
-                if len(xs) < a.min_matches:
-                    continue
-                xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
-                c = xs.mean(axis=0)
-                rel = xs - c
-                s = float(np.sum((xd - xs) * rel) / np.sum(rel * rel))
-                z = float(fr.instances[j].T_m2c[2, 3])
-                rows.append({"obj_id": oids[j], "n": len(xs), "scale": s, "dz_mm": -s * z,
-                             "shift_px": float(np.linalg.norm((xd - xs).mean(axis=0)))})
+            xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
+            c = xs.mean(axis=0)
+            rel = xs - c
+            s = float(np.sum((xd - xs) * rel) / np.sum(rel * rel))
+            z = float(fr.instances[j].T_m2c[2, 3])
+            rows.append({"obj_id": oids[j], "n": len(xs), "scale": s, "dz_mm": -s * z,
+                         "shift_px": float(np.linalg.norm((xd - xs).mean(axis=0)))})
     s = np.array([x["scale"] for x in rows])
     dz = np.array([x["dz_mm"] for x in rows])
     print(f"groups {len(rows)}: scale mean {s.mean():+.5f} rms {np.sqrt(np.mean(s ** 2)):.5f}; "

@@ -82,7 +82,7 @@ class EdgeTerm:
     # contour-dilation nuisance (> 0: on): every group with normals N gets a shared outward offset b
     # (px) of its contour samples, minimised out of the cost with a quadratic prior whose curvature
     # is ``dilation_k`` times the mean curvature of one contour sample along its normal, i.e. the
-    # contour's overall size is worth ``dilation_k`` samples, not all of them (see dilation_offsets)
+    # contour's overall size is worth ``dilation_k`` samples, not all of them (see _best_dilation)
     dilation_k: float = 0.0
     _priors: dict = field(default_factory=dict, repr=False)
 

@@ -43,3 +43,29 @@ def bop_models_root() -> Path:
 @pytest.fixture(autouse=True)
 def _quiet_progress(monkeypatch):
     monkeypatch.setenv("YCBVSS_NO_PROGRESS", "1")
+
+
+def _fd_gradient(pb, term, h: float):
+    """Central-difference gradient of ``term.cost`` over the free parameters of the bundle problem
+    ``pb`` (step ``h`` in its se(3) increments); the state is restored after each probe."""
+    import numpy as np
+
+    g = np.zeros(pb.n_params)
+    st = pb.state()
+    for p in range(pb.n_params):
+        d = np.zeros(pb.n_params)
+        d[p] = h
+        pb.apply_step(d)
+        cp = term.cost(pb)
+        pb.set_state(st)
+        pb.apply_step(-d)
+        cm = term.cost(pb)
+        pb.set_state(st)
+        g[p] = (cp - cm) / (2 * h)
+    return g
+
+
+@pytest.fixture
+def fd_gradient():
+    """:func:`_fd_gradient` (tests import no helpers from each other: --import-mode=importlib)."""
+    return _fd_gradient

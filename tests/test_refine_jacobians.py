@@ -48,29 +48,13 @@ def test_projection_jacobians_match_finite_differences():
     assert worst < 1e-5 * max(1.0, np.abs(Ji).max())
 
 
-def _fd_gradient(pb, term, h):
-    g = np.zeros(pb.n_params)
-    st = pb.state()
-    for p in range(pb.n_params):
-        d = np.zeros(pb.n_params)
-        d[p] = h
-        pb.apply_step(d)
-        cp = term.cost(pb)
-        pb.set_state(st)
-        pb.apply_step(-d)
-        cm = term.cost(pb)
-        pb.set_state(st)
-        g[p] = (cp - cm) / (2 * h)
-    return g
-
-
 def _problem(rng, two_views=True):
     views = [View(0, K, 320, 240), View(1, K, 320, 240)]
     Tc, Tm = _poses(rng)
     return BundleProblem(views, [1], np.stack([np.eye(4), Tc]), Tm[None])
 
 
-def test_term_gradients_match_finite_differences():
+def test_term_gradients_match_finite_differences(fd_gradient):
     rng = np.random.default_rng(2)
     pb = _problem(rng)
     X = rng.normal(scale=30, size=(60, 3))
@@ -89,12 +73,12 @@ def test_term_gradients_match_finite_differences():
                          (terms[3], 1e-6, 1e-3)):
         _, lins = term.linearize(pb)
         _, g = assemble(pb.n_blocks, lins)
-        g_fd = _fd_gradient(pb, term, h)
+        g_fd = fd_gradient(pb, term, h)
         rel = np.linalg.norm(g - g_fd) / np.linalg.norm(g_fd)
         assert rel < tol, (term.name, rel)
 
 
-def test_depth_term_gradient_matches_finite_differences():
+def test_depth_term_gradient_matches_finite_differences(fd_gradient):
     """DepthTerm (the initialisation's depth anchor), points beyond its cap included (no gradient)."""
     rng = np.random.default_rng(0)
     pb = _problem(rng)
@@ -104,7 +88,7 @@ def test_depth_term_gradient_matches_finite_differences():
     term = DepthTerm([DepthGroup(i, 0, X, z[i]) for i in range(2)], weight=0.3, cap_mm=60.0)
     _, lins = term.linearize(pb)
     _, g = assemble(pb.n_blocks, lins)
-    assert np.abs(_fd_gradient(pb, term, 1e-6) - g).max() <= 1e-5 * np.abs(g).max()
+    assert np.abs(fd_gradient(pb, term, 1e-6) - g).max() <= 1e-5 * np.abs(g).max()
 
 
 def test_uniform_image_gives_flat_edge_field():
