@@ -115,7 +115,8 @@ class EdgeCandidates:
 
 def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True,
                          fold_min_angle_deg: float = 25.0, blur_sigma_px: float | None = None,
-                         image: np.ndarray | None = None, normals: bool = False) -> EdgeCandidates:
+                         image: np.ndarray | None = None, normals: bool = False,
+                         appearance_color: np.ndarray | None = None) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -124,14 +125,17 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     silhouette (:func:`ycbvss.refine.contour_match.match_contour_to_blur`); None: half a pixel
     outside the contour pixels. ``image`` (with ``blur_sigma_px``): also move them by what the
     template's texture and the image's background beside them predict
-    (:func:`ycbvss.refine.contour_match.appearance_offsets`). ``normals``: also the contour
-    samples' outward normals (``n_c``, f_edge's contour-dilation nuisance)."""
+    (:func:`ycbvss.refine.contour_match.appearance_offsets`); ``appearance_color`` (H, W, 3 uint8):
+    the template colour that prediction uses instead of ``vr.color`` (e.g. the lit template of
+    :func:`ycbvss.refine.shading.lit_template`). ``normals``: also the contour samples' outward
+    normals (``n_c``, f_edge's contour-dilation nuisance)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance)
     if blur_sigma_px is not None:
         geo = uv_c
         uv_c = match_contour_to_blur(uv_c, l_c, vr.instance, blur_sigma_px)
         if image is not None:
-            off, n = appearance_offsets(geo, l_c, vr.instance, vr.color, image, blur_sigma_px)
+            col = vr.color if appearance_color is None else appearance_color
+            off, n = appearance_offsets(geo, l_c, vr.instance, col, image, blur_sigma_px)
             uv_c = uv_c + off[:, None] * n
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal if creases else None,
                                          erode_px=erode_px, fold_min_angle_deg=fold_min_angle_deg,

@@ -94,6 +94,22 @@ def test_single_view_refines_objects(scene4):
 
 @pytest.mark.parametrize("free_gauge", [False, True])
 def test_bad_inputs_never_nan(scene4, free_gauge):
+    _bad_inputs_never_nan(scene4, free_gauge=free_gauge)
+
+
+def test_bad_inputs_never_nan_lit_templates(scene4, monkeypatch):
+    """The same bad inputs with the templates lit by the fitted lighting (f_point and the
+    contour's appearance prediction; a uniform image gives a flat fit, not a NaN)."""
+    import ycbvss.refine.bundle as bundle
+
+    calls = []
+    lit = bundle.lit_template
+    monkeypatch.setattr(bundle, "lit_template", lambda *a, **k: calls.append(1) or lit(*a, **k))
+    _bad_inputs_never_nan(scene4, template_shading=True, edge_appearance=True)
+    assert len(calls) >= 6        # both terms' templates of the 3 views were lit
+
+
+def _bad_inputs_never_nan(scene4, **opts):
     ps, imgs, gt, pts = scene4
     frames = ps.frames[:3]
     ims = {f.im_id: imgs[f.im_id] for f in frames}
@@ -111,8 +127,8 @@ def test_bad_inputs_never_nan(scene4, free_gauge):
         init[(f.im_id, 5)] = T
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        res = refine_scene(Scene(1, frames), ps.models, init, RefineOptions(max_iters=2, coarse_iters=1,
-                                                                              free_gauge=free_gauge), images=ims)
+        res = refine_scene(Scene(1, frames), ps.models, init, RefineOptions(max_iters=2, coarse_iters=1, **opts),
+                           images=ims)
     assert sum("invalid init pose" in str(x.message) for x in w) == 2
     assert len(res.poses) == 3 * 5                                         # every (view, object) gets a pose
     assert all(np.all(np.isfinite(T)) for T in res.poses.values())

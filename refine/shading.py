@@ -1,0 +1,97 @@
+"""Lambertian shading of the refiner's unlit templates, fitted to the image (second-order
+spherical harmonics of the surface normal, Ramamoorthi & Hanrahan 2001).
+
+The fast renderer draws each object's albedo texture without light. A lit image (a photo, or a
+Cycles render with a sun and glossy surfaces) darkens the faces turned away from the light, so
+the template and the image differ by a smooth shading field. Flow between them and the image's
+edge locations then lean towards that field's gradient. The irradiance of a distant light on a
+convex Lambertian surface is, to within a few per cent, a quadratic polynomial of the normal
+(the 9 real SH basis functions up to order 2); it is linear in its 9 coefficients, so one view's
+lighting is a linear least-squares fit of image = albedo x shading(normal) over the objects'
+pixels. Shadows and highlights are outliers of that model: two trimmed refits drop them.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .edge import srgb_to_linear
+
+N_SH = 9
+
+
+def sh9_basis(normals: np.ndarray) -> np.ndarray:
+    """The 9 real SH basis functions up to order 2 (constants dropped, they fold into the
+    coefficients) at unit normals (N, 3): columns 1, x, y, z, xy, xz, yz, x^2 - y^2, 3z^2 - 1."""
+    x, y, z = normals[:, 0], normals[:, 1], normals[:, 2]
+    return np.stack([np.ones_like(x), x, y, z, x * y, x * z, y * z, x * x - y * y, 3 * z * z - 1], axis=1)
+
+
+def _linear_to_srgb_u8(lin: np.ndarray) -> np.ndarray:
+    """Linear light in [0, 255] -> 8-bit sRGB (IEC 61966-2-1 encoding)."""
+    x = np.clip(lin / 255.0, 0.0, 1.0)
+    enc = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    return np.clip(np.rint(enc * 255.0), 0, 255).astype(np.uint8)
+
+
+def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray,
+                ridge: float = 1e-3, trim: float = 2.5, max_px: int = 40000, seed: int = 0) -> np.ndarray | None:
+    """Per-channel SH coefficients (3, 9) with ``image ~ albedo * (B(n) @ c)`` in linear light.
+
+    ``image``, ``albedo``: (H, W, 3) uint8 sRGB (the photo and the unlit template); ``normals``
+    (H, W, 3) camera-frame unit normals of the template; ``mask`` (H, W) bool, the pixels to fit
+    (object interiors, away from the silhouettes). ``ridge``: Tikhonov weight on the order-1/2
+    coefficients relative to the data. ``trim``: refit twice without pixels whose residual exceeds
+    ``trim`` x the median absolute residual (cast shadows, highlights, occluders the template lacks).
+    At most ``max_px`` pixels (a fixed random subset). None when fewer than 50 usable pixels."""
+    m = np.asarray(mask, bool)
+    a = srgb_to_linear(albedo)[m].astype(np.float64)
+    i = srgb_to_linear(image)[m].astype(np.float64)
+    n = np.asarray(normals, np.float64)[m]
+    nn = np.linalg.norm(n, axis=1)
+    ok = (nn > 0.5) & (a.min(axis=1) > 2.0) & (i.max(axis=1) < 254.0)    # no albedo: no shading; saturated: clipped
+    a, i, n = a[ok], i[ok], n[ok] / nn[ok, None]
+    if len(a) < 50:
+        return None
+    if len(a) > max_px:
+        sel = np.random.default_rng(seed).choice(len(a), max_px, replace=False)
+        a, i, n = a[sel], i[sel], n[sel]
+    B = sh9_basis(n)
+    C = np.zeros((3, N_SH))
+    reg = np.full(N_SH, ridge)
+    reg[0] = 0.0
+    for c in range(3):
+        keep = np.ones(len(a), bool)
+        for _ in range(3):
+            X = a[keep, c, None] * B[keep]
+            A = X.T @ X
+            A[np.diag_indices(N_SH)] += reg * np.trace(A) / N_SH
+            C[c] = np.linalg.solve(A, X.T @ i[keep, c])
+            r = i[:, c] - a[:, c] * (B @ C[c])
+            keep = np.abs(r) <= trim * np.median(np.abs(r[keep])) + 1e-6
+            if keep.sum() < 50:
+                break
+    return C
+
+
+def shade(albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
+    """The template lit by ``coeffs`` (3, 9) where ``mask``, else ``albedo`` unchanged: (H, W, 3) uint8 sRGB."""
+    out = np.array(albedo, copy=True)
+    m = np.asarray(mask, bool)
+    n = np.asarray(normals, np.float64)[m]
+    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-9)
+    s = np.clip(sh9_basis(n) @ coeffs.T, 0.0, None)                      # (N, 3) irradiance per channel
+    out[m] = _linear_to_srgb_u8(srgb_to_linear(albedo)[m] * s)
+    return out
+
+
+def lit_template(color: np.ndarray, normals: np.ndarray, instance: np.ndarray, image: np.ndarray,
+                 erode_px: int = 3) -> np.ndarray:
+    """One view's template ``color`` (H, W, 3 uint8, unlit) shaded by the lighting fitted to
+    ``image`` over the rendered objects' pixels at least ``erode_px`` px inside their silhouettes
+    (``instance`` > 0). The unlit template when the fit has too few pixels."""
+    import cv2
+
+    obj = np.asarray(instance) > 0
+    inner = cv2.erode(obj.astype(np.uint8), np.ones((2 * erode_px + 1,) * 2, np.uint8)).astype(bool) if erode_px > 0 else obj
+    C = fit_shading(image, color, normals, inner)
+    return np.asarray(color) if C is None else shade(color, normals, obj, C)

@@ -1,0 +1,98 @@
+"""refine.shading: the SH lighting fit recovers a directional + ambient light (clamped cosine,
+not the SH model itself) from a textured sphere, and tolerates cast shadows and highlights."""
+import numpy as np
+
+from ycbvss.refine.edge import srgb_to_linear
+from ycbvss.refine.shading import _linear_to_srgb_u8, fit_shading, lit_template, shade
+
+
+def _sphere(h=160, w=160, r=70.0):
+    v, u = np.mgrid[0:h, 0:w].astype(float)
+    x, y = (u - w / 2) / r, (v - h / 2) / r
+    inside = x * x + y * y < 0.98
+    z = -np.sqrt(np.clip(1 - x * x - y * y, 0, None))           # camera frame: normals face the camera (-z)
+    n = np.stack([x, y, z], -1) * inside[..., None]
+    return n, inside
+
+
+def _lit(albedo, n, inside, light, ambient):
+    s = ambient + np.clip(n @ light, 0, None)
+    lin = srgb_to_linear(albedo) * s[..., None]
+    img = _linear_to_srgb_u8(lin)
+    img[~inside] = 0
+    return img
+
+
+def test_fit_recovers_directional_light():
+    rng = np.random.default_rng(3)
+    n, inside = _sphere()
+    albedo = rng.integers(40, 230, size=n.shape[:2] + (3,)).astype(np.uint8)
+    light = np.array([0.4, -0.6, -0.69])
+    light /= np.linalg.norm(light)
+    img = _lit(albedo, n, inside, 0.8 * light, 0.35)
+    C = fit_shading(img, albedo, n, inside)
+    pred = shade(albedo, n, inside, C)
+    err = np.abs(srgb_to_linear(pred)[inside] - srgb_to_linear(img)[inside]).mean()
+    base = np.abs(srgb_to_linear(albedo)[inside] - srgb_to_linear(img)[inside]).mean()
+    # measured: 1.33 (linear units of 255) against 21.6 for the unlit template
+    assert err < 0.1 * base, (err, base)
+
+
+def test_fit_ignores_shadow_and_highlight():
+    rng = np.random.default_rng(4)
+    n, inside = _sphere()
+    albedo = rng.integers(40, 230, size=n.shape[:2] + (3,)).astype(np.uint8)
+    light = np.array([-0.3, -0.5, -0.81])
+    light /= np.linalg.norm(light)
+    clean = _lit(albedo, n, inside, 0.8 * light, 0.35)
+    img = clean.copy()
+    img[20:60, 60:110] //= 4                                     # a cast shadow the model lacks
+    img[100:110, 70:80] = 255                                    # a highlight
+    C = fit_shading(img, albedo, n, inside)
+    pred = shade(albedo, n, inside, C)
+    ok = inside.copy()
+    ok[20:60, 60:110] = False
+    ok[100:110, 70:80] = False
+    err = np.abs(srgb_to_linear(pred)[ok] - srgb_to_linear(clean)[ok]).mean()
+    assert err < 3.0, err      # measured 2.09 (linear units of 255)
+
+
+def test_lit_template_keeps_background_and_falls_back():
+    n, inside = _sphere()
+    albedo = np.full(n.shape[:2] + (3,), 120, np.uint8)
+    inst = inside.astype(np.int32)
+    img = _lit(albedo, n, inside, 0.8 * np.array([0, 0, -1.0]), 0.2)
+    out = lit_template(albedo, n, inst, img)
+    assert np.array_equal(out[~inside], albedo[~inside])
+    assert np.abs(out[inside].astype(int) - img[inside].astype(int)).mean() < 3
+    tiny = np.zeros_like(inst)
+    tiny[80, 80] = 1                                             # too few pixels to fit: the unlit template
+    assert np.array_equal(lit_template(albedo, n, tiny, img), albedo)
+
+
+def test_lit_template_removes_flow_bias():
+    """Flow matches (the refiner's f_point matching) from a textured sphere's unlit template to
+    its image lit by a clamped-cosine light land off by the shading's pull; the lit template's
+    matches do not. Measured over seeds 0-2: rms 0.068-0.089 px unlit, 0.022-0.029 px lit."""
+    import cv2
+
+    from ycbvss.refine.matching import FlowOptions, flow_matches, min_eig_map, normalize_for_flow
+
+    rms = {"unlit": [], "lit": []}
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        n, inside = _sphere(200, 200, 90.0)
+        tex = cv2.GaussianBlur(rng.uniform(0, 255, (200, 200, 3)).astype(np.float32), (0, 0), 2.0)
+        tex = np.clip((tex - 127) * 6 + 127, 30, 230).astype(np.uint8)
+        light = np.array([0.6, -0.5, -0.62])
+        img = _lit(tex, n, inside, 0.9 * light / np.linalg.norm(light), 0.15)
+        img = np.where(inside[..., None], img, np.uint8(90))
+        alb = np.where(inside[..., None], tex, np.uint8(90))
+        m = cv2.erode(inside.astype(np.uint8), np.ones((13, 13), np.uint8)).astype(bool)
+        for name, t in (("unlit", alb), ("lit", lit_template(alb, n, inside.astype(int), img))):
+            (a, b), = flow_matches(normalize_for_flow(t), normalize_for_flow(img), [m], FlowOptions(),
+                                   corner_image=t, dst_me=min_eig_map(img))
+            assert len(a) > 300
+            rms[name].append(float(np.sqrt(np.mean(np.sum((b - a) ** 2, axis=1)))))
+    assert max(rms["lit"]) < 0.05, rms
+    assert max(rms["lit"]) < 0.5 * min(rms["unlit"]), rms
