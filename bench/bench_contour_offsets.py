@@ -66,7 +66,14 @@ def main() -> None:
     ap.add_argument("--sigma-px", type=float, default=1.0)
     ap.add_argument("--min-samples", type=int, default=40)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--directions", action="store_true",
+                    help="instead: the offsets by the contour's image direction (outward normal up / down / sideways) "
+                         "for the binary contour prediction, the appearance prediction from the unlit template and from "
+                         "the lit one (RefineOptions.edge_appearance, template_shading); table contour_directions")
     a = ap.parse_args()
+    if a.directions:
+        directions(a)
+        return
     rows = []
     models: dict = {}
     for models, sid, fr, img, vr, oids in gt_views(a):
@@ -105,6 +112,46 @@ def main() -> None:
                            float(np.median([x["scatter_px"] for x in v]))]))
     t.rows.append(Row("all", [float(len(rows)), float(b.mean()), sigma_b, sigma_s], rule_before=True))
     for p in write_table(t, Path(a.out), "contour_offsets"):
+        print(p)
+
+
+def directions(a: argparse.Namespace) -> None:
+    """Per (view, object) and contour direction the median image-edge offset (px, outward +) from
+    the contour samples of three predictions; table of their mean and rms over (view, object)s."""
+    from ycbvss.eval.tables import Row, Table, write_table
+    from ycbvss.refine.contour_match import _minimum_along
+    from ycbvss.refine.edge import edge_field
+    from ycbvss.refine.shading import lit_template
+    from ycbvss.refine.templates import view_edge_candidates
+
+    dirs = ("up", "down", "sideways", "all")
+    acc: dict = {}
+    for _, _, _, img, vr, oids in gt_views(a):
+        fld = edge_field(img, a.sigma_px, colour=True)
+        lit = lit_template(vr.color, vr.normal, vr.instance, img)
+        for mode, kw in (("binary", {}), ("appearance, unlit template", {"image": img}),
+                         ("appearance, lit template", {"image": img, "appearance_color": lit})):
+            c = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True, **kw)
+            for lab0 in range(len(oids)):
+                sel = np.flatnonzero((c.l_c == lab0 + 1) & np.any(c.n_c != 0.0, axis=1))
+                if len(sel) < 20:
+                    continue
+                t = _minimum_along(fld, c.uv_c[sel], c.n_c[sel], 1.5, 0.25)
+                n = c.n_c[sel]
+                ok = np.abs(t) < 1.5 - 0.25
+                masks = (n[:, 1] < -0.7, n[:, 1] > 0.7, np.abs(n[:, 0]) > 0.7, np.ones(len(n), bool))
+                for d, m in zip(dirs, masks):
+                    if np.sum(m & ok) >= 5:
+                        acc.setdefault((mode, d), []).append(float(np.median(t[m & ok])))
+    t = Table(["(view, object)s", "mean (px)", "rms (px)"], label_header="prediction, contour direction", digits=3,
+              caption=f"Image edge minus contour sample along the outward normal at the exact GT (sigma {a.sigma_px:g} px), "
+                      f"median per (view, object) and image direction of the outward normal (up: n_v < -0.7, down: "
+                      f"n_v > 0.7, sideways: |n_u| > 0.7); scenes {a.scenes}, frame positions {a.frames}")
+    for (mode, d), v in acc.items():
+        x = np.array(v)
+        t.rows.append(Row(f"{mode}: {d}", [float(len(x)), float(x.mean()), float(np.sqrt(np.mean(x ** 2)))]))
+        print(f"{mode:28s} {d:9s} n {len(x):4d} mean {x.mean():+.3f} rms {np.sqrt(np.mean(x ** 2)):.3f}")
+    for p in write_table(t, Path(a.out), "contour_directions"):
         print(p)
 
 
