@@ -15,6 +15,7 @@ offset from ``bench_contour_offsets.py`` it says which term carries which part o
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -26,11 +27,14 @@ def main() -> None:
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches
     from ycbvss.refine.matching import min_eig_map
+    from ycbvss.refine.shading import lit_template
     from ycbvss.refine.templates import composite, object_mask
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_view_args(ap)
     ap.add_argument("--min-matches", type=int, default=30)
+    ap.add_argument("--lit", action="store_true",
+                    help="the template lit by the lighting fitted to the image (RefineOptions.template_shading)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     opt = RefineOptions()
@@ -39,6 +43,8 @@ def main() -> None:
     for models, _, fr, img, vr, oids in gt_views(a):
         objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
         y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
+        if a.lit:
+            vr = replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, img))
         raw = composite(vr, img, (y0, y1, x0, x1))
         masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
         matches = _view_matches(raw, img[y0:y1, x0:x1], masks, opt.flow, min_eig_map(img)[y0:y1, x0:x1])
@@ -61,7 +67,7 @@ def main() -> None:
         per_obj.setdefault(x["obj_id"], []).append(x)
     t = Table(["groups", "matches", "scale mean (%)", "depth pull mean (mm)", "depth pull rms (mm)", "mean shift (px)"],
               label_header="object", digits=3,
-              caption=f"f_point's flow matches at the exact GT: least-squares scale of their displacement about "
+              caption=f"f_point's flow matches at the exact GT ({'lit' if a.lit else 'unlit'} template): least-squares scale of their displacement about "
                       f"their centroid and the depth it pulls (-scale x Z); scenes {a.scenes}, frame positions {a.frames}")
     for o, v in sorted(per_obj.items()):
         d = np.array([x["dz_mm"] for x in v])
