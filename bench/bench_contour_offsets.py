@@ -55,6 +55,30 @@ def gt_views(a: argparse.Namespace):
             yield models, sid, fr, fr.load_rgb(), vr, oids
 
 
+def gt_view_matches(vr, img: np.ndarray, lit: bool = False) -> tuple[list[int], list]:
+    """f_point's template-to-image flow matches of one GT view as the refiner makes them (default
+    RefineOptions; crop coordinates): (object indices with at least ``min_visible_px`` visible,
+    their (src, dst) matches). ``lit``: the template lit by the fitted lighting
+    (``RefineOptions.template_shading``). Shared by ``bench_match_scale.py`` and
+    ``bench_template_shading.py``."""
+    from dataclasses import replace
+
+    from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches
+    from ycbvss.refine.matching import min_eig_map
+    from ycbvss.refine.shading import lit_template
+    from ycbvss.refine.templates import composite, object_mask
+
+    opt = RefineOptions()
+    objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
+    y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
+    if lit:
+        vr = replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, img))
+    masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
+    matches = _view_matches(composite(vr, img, (y0, y1, x0, x1)), img[y0:y1, x0:x1], masks, opt.flow,
+                            min_eig_map(img)[y0:y1, x0:x1])
+    return objs, [(a[: opt.n_matches], b[: opt.n_matches]) for a, b in matches]
+
+
 def main() -> None:
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.refine.contour_match import _minimum_along

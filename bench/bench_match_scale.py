@@ -15,20 +15,15 @@ offset from ``bench_contour_offsets.py`` it says which term carries which part o
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 
 def main() -> None:
-    from bench_contour_offsets import add_view_args, gt_views   # this folder (run as a script)
+    from bench_contour_offsets import add_view_args, gt_view_matches, gt_views   # this folder (run as a script)
 
     from ycbvss.eval.tables import Row, Table, write_table
-    from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches
-    from ycbvss.refine.matching import min_eig_map
-    from ycbvss.refine.shading import lit_template
-    from ycbvss.refine.templates import composite, object_mask
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_view_args(ap)
@@ -37,21 +32,13 @@ def main() -> None:
                     help="the template lit by the lighting fitted to the image (RefineOptions.template_shading)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
-    opt = RefineOptions()
     rows = []
     models: dict = {}
     for models, _, fr, img, vr, oids in gt_views(a):
-        objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
-        y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
-        if a.lit:
-            vr = replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, img))
-        raw = composite(vr, img, (y0, y1, x0, x1))
-        masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
-        matches = _view_matches(raw, img[y0:y1, x0:x1], masks, opt.flow, min_eig_map(img)[y0:y1, x0:x1])
+        objs, matches = gt_view_matches(vr, img, lit=a.lit)
         for j, (xs, xd) in zip(objs, matches):
             if len(xs) < a.min_matches:
                 continue
-            xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
             c = xs.mean(axis=0)
             rel = xs - c
             s = float(np.sum((xd - xs) * rel) / np.sum(rel * rel))

@@ -11,39 +11,27 @@ refiner's matches (px) and their mean displacement, with either template.
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 
 def main() -> None:
-    from bench_contour_offsets import add_view_args, gt_views   # this folder (run as a script)
+    from bench_contour_offsets import add_view_args, gt_view_matches, gt_views   # this folder (run as a script)
 
     from ycbvss.eval.tables import Row, Table, write_table
-    from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches
-    from ycbvss.refine.matching import min_eig_map
-    from ycbvss.refine.shading import lit_template
-    from ycbvss.refine.templates import composite, object_mask
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_view_args(ap)
     ap.add_argument("--min-matches", type=int, default=10)
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
-    opt = RefineOptions()
     per: dict = {}           # obj_id -> {"unlit": [(rms, |mean|, n)], "lit": [...]}
     models: dict = {}
-    for models, _, fr, img, vr, oids in gt_views(a):
-        objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
-        y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
-        masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
-        me = min_eig_map(img)[y0:y1, x0:x1]
-        lit = replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, img))
-        for name, v in (("unlit", vr), ("lit", lit)):
-            matches = _view_matches(composite(v, img, (y0, y1, x0, x1)), img[y0:y1, x0:x1], masks, opt.flow, me)
+    for models, _, _, img, vr, oids in gt_views(a):
+        for name in ("unlit", "lit"):
+            objs, matches = gt_view_matches(vr, img, lit=name == "lit")
             for j, (xs, xd) in zip(objs, matches):
-                xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
                 if len(xs) < a.min_matches:
                     continue
                 d = xd - xs

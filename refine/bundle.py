@@ -221,6 +221,7 @@ class _Stage:
         self.register_gauge = (opt.register_gauge and name == "keyframes" and len(pb.cam_free) > 1
                                and not pb.cam_free[0] and bool(np.any(pb.cam_free[1:])))
         self._point_term = None
+        self._lit: dict[int, np.ndarray] = {}     # view index -> lit template colour, per build_terms call
         self._T_m_starts: list[np.ndarray] = []
         self.fold_angle = opt.fold_min_angle_deg
         # last outer iteration's change of every camera / object: (mm, deg) arrays
@@ -265,6 +266,7 @@ class _Stage:
         ``min_visible_px`` of its template is visible (recorded in ``self.visible``)."""
         opt = self.opt
         terms = []
+        self._lit = {}           # this iteration's lit templates (template_shading), shared by f_edge and f_point
         vis = {(i, j) for i, vr in renders.items() for j in vr.obj_index
                if int(vr.mask(j).sum()) >= opt.min_visible_px}
         self.visible |= vis
@@ -277,6 +279,13 @@ class _Stage:
         if opt.use_temporal and opt.beta > 0 and self.pairs:
             terms.append(self._temporal_term(renders))
         return terms
+
+    def _lit_color(self, i: int, vr: ViewRender) -> np.ndarray:
+        """View i's template colour lit by the lighting fitted to its image (refine.shading), fitted
+        once per :meth:`build_terms` call."""
+        if i not in self._lit:
+            self._lit[i] = lit_template(vr.color, vr.normal, vr.instance, self.pb.views[i].image)
+        return self._lit[i]
 
     def _blur_match_sigma(self, fields: dict) -> float | None:
         """Blur (px) of the level's edge field the contour samples are matched to, None when off."""
@@ -298,15 +307,11 @@ class _Stage:
         # information to pull a depth that starts centimetres off (paper init) into the basin
         dil = (opt.edge_dilation_k > 0.0
                and level_sigma <= DILATION_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
-        def lit(i: int, vr: ViewRender) -> np.ndarray | None:
-            if not (app and opt.template_shading and vr.normal is not None):
-                return None
-            return lit_template(vr.color, vr.normal, vr.instance, pb.views[i].image)
-
+        lit = app and opt.template_shading
         jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
                                             fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur,
                                             image=pb.views[i].image if app else None, normals=dil,
-                                            appearance_color=lit(i, vr)))
+                                            appearance_color=self._lit_color(i, vr) if lit and vr.normal is not None else None))
                 for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
         for i, vr, job in jobs:
             nrm: dict | None = {} if dil else None
@@ -333,7 +338,7 @@ class _Stage:
                 continue
             y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
             if opt.template_shading and vr.normal is not None:
-                vr = dc_replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, pb.views[i].image))
+                vr = dc_replace(vr, color=self._lit_color(i, vr))
             raw = composite(vr, pb.views[i].image, (y0, y1, x0, x1))
             masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
             img_c = pb.views[i].image[y0:y1, x0:x1]

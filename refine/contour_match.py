@@ -18,7 +18,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .edge import EdgeField, gradient_magnitude, sample_bilinear, sample_E, srgb_to_linear
+from .edge import EdgeField, gradient_magnitude, linear_to_srgb, sample_bilinear, sample_E, srgb_to_linear
 
 
 def search_px(sigma_px: float) -> tuple[float, float]:
@@ -136,12 +136,6 @@ def contour_normals(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, sigma_
 # which at sigma 2 px makes the prediction worse than the binary one for the mug and the large
 # clamp; so the refiner applies it at the finest blur level only (``RefineOptions.edge_appearance``).
 
-def _encode_srgb(x: np.ndarray) -> np.ndarray:
-    """Linear light in [0, 255] -> sRGB-encoded values in [0, 255] (colour-science's sRGB curve)."""
-    import colour  # lazy: colour-science takes ~1 s to import
-    return colour.cctf_encoding(np.clip(x / 255.0, 0.0, 1.0), function="sRGB") * 255.0
-
-
 def _peak_offset(profile: np.ndarray, t: np.ndarray, sigma_px: float, half_px: float) -> np.ndarray:
     """Position (px) of the largest colour-gradient magnitude of sRGB profiles (N, K, C) sampled at
     t (K,), after a Gaussian blur of ``sigma_px`` along t, searched within |t| <= half_px (parabola
@@ -227,7 +221,7 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
         b = np.median(sample_bilinear(im.astype(np.float32), P_out.reshape(-1, 2))[0]
                       .reshape(len(p), len(outside_t), -1), axis=1)
         prof = np.concatenate([a, np.repeat(b[:, None, :], int((~inside_t).sum()), axis=1)], axis=1)
-        prof = _encode_srgb(convolve1d(prof, box, axis=1, mode="nearest"))
+        prof = linear_to_srgb(convolve1d(prof, box, axis=1, mode="nearest"))
         off = _peak_offset(prof, t, sig, half) - ref
         ok = np.any(n != 0.0, axis=1) & np.all(np.isfinite(prof.reshape(len(p), -1)), axis=1)
         out[sel[ok]] = off[ok]

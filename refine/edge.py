@@ -96,6 +96,13 @@ def srgb_to_linear(image: np.ndarray) -> np.ndarray:
 _SRGB_LUT: np.ndarray | None = None
 
 
+def linear_to_srgb(x: np.ndarray) -> np.ndarray:
+    """Linear light in [0, 255] -> sRGB-encoded values in [0, 255], float (IEC 61966-2-1 encoding
+    through colour-science; the inverse of :func:`srgb_to_linear`)."""
+    import colour  # lazy: colour-science takes ~1 s to import
+    return colour.cctf_encoding(np.clip(np.asarray(x) / 255.0, 0.0, 1.0), function="sRGB") * 255.0
+
+
 def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float = 100.0,
                interp: str = "cubic", colour: bool = False, linear: bool = False) -> EdgeField:
     """Edge field of an image (RGB or gray) at blur ``sigma_px``.

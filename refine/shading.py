@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .edge import srgb_to_linear
+from .edge import linear_to_srgb, srgb_to_linear
 
 N_SH = 9
 
@@ -27,10 +27,8 @@ def sh9_basis(normals: np.ndarray) -> np.ndarray:
 
 
 def _linear_to_srgb_u8(lin: np.ndarray) -> np.ndarray:
-    """Linear light in [0, 255] -> 8-bit sRGB (IEC 61966-2-1 encoding)."""
-    x = np.clip(lin / 255.0, 0.0, 1.0)
-    enc = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-    return np.clip(np.rint(enc * 255.0), 0, 255).astype(np.uint8)
+    """Linear light in [0, 255] -> 8-bit sRGB."""
+    return np.clip(np.rint(linear_to_srgb(lin)), 0, 255).astype(np.uint8)
 
 
 def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray,

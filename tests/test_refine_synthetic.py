@@ -106,7 +106,7 @@ def test_bad_inputs_never_nan_lit_templates(scene4, monkeypatch):
     lit = bundle.lit_template
     monkeypatch.setattr(bundle, "lit_template", lambda *a, **k: calls.append(1) or lit(*a, **k))
     _bad_inputs_never_nan(scene4, template_shading=True, edge_appearance=True)
-    assert len(calls) >= 6        # both terms' templates of the 3 views were lit
+    assert len(calls) >= 6        # the 3 views' templates were lit, iteration after iteration
 
 
 def _bad_inputs_never_nan(scene4, **opts):
