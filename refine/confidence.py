@@ -5,13 +5,17 @@ Three measurements per object of a scene:
 
 - ``contour_px``: the median, over up to ``n_views`` views, of the offset (px) between the
   visible exterior contour of the object's template at the refined pose and the image's edge,
-  measured per normal direction (:func:`contour_offset_px`). An object placed far along its ray
+  measured per normal direction (:func:`contour_offset_px`; the template lit by the lighting
+  fitted to the view, :func:`ycbvss.refine.shading.lit_template`, since 2026-11-26). An object placed far along its ray
   or turned away shows its contour off the image edges by pixels; a correct pose puts it within
   a fraction of a pixel. Per view, the median of its objects' offsets is taken too (every view of
   the scene), and a pose's contour counts as the larger of its object's and its view's: a camera
   solved wrongly puts every object of its view off the image edges while the objects fit the
   other views, which the per-object median does not see (found on the suite's long clip 1 from
   initial ADD 40 mm: frames 0 and 63 ended 5 deg off, ADD 12-32 mm, and were reported converged).
+  ``contour_worst_px`` (:func:`worst_views_px`): the object's offset in its worst views (all of
+  them, not the median's few), so a pose that fits the views where the object is mostly hidden
+  but not those that show it is not verified by the former.
 - ``sigma``: per-pose standard deviations from the bundle covariance, multiplied by the
   calibration factors ``SIGMA_SCALE_NARROW`` / ``SIGMA_SCALE_WIDE`` measured on the ycbv21 suite
   (the statistical part, ``sigma_stat_*``), folded into one ``sigma_add_mm`` (the ADD a 1-sigma
@@ -27,7 +31,7 @@ Three measurements per object of a scene:
 
 Status: ``failed`` for a numerical failure (NaN, singular system) or a contour clearly off the
 image edges (``contour_px > FAIL_PX``; both px thresholds are for 640-px-wide images, as YCB-V's,
-and scale with the width); ``uncertain`` when the contour is loose (``> OK_PX``), the calibrated
+and scale with the width); ``uncertain`` when the contour is loose (``> OK_PX``; in the median view or in the worst views), the calibrated
 ``sigma_add_mm`` exceeds ``SIGMA_OK_MM``, the object turned more than ``MAX_TURN_DEG`` from its
 initial pose (modulo symmetries), a copy of it turned 20-40 deg about a model axis fits the texture
 inside its silhouette better (:func:`ycbvss.refine.turn_check.turned_wrong`), or its projected centre moved farther from the initial poses' than
@@ -69,6 +73,15 @@ MAX_TURN_DEG = 20.0
 # move 2-5 px from the paper's initial error.
 MAX_SHIFT_PX = 15.0
 SHIFT_SCATTER_K = 3.0
+# A static object's pose must fit every view it is seen in, not only the typical one: the contour
+# measure above is a median over a few views, and on the suite (medium clip of scene 1, seed 5) a
+# large clamp mostly hidden behind a can in the first frames ended 12 mm too close and 3 deg turned,
+# its median offset 0.23 px (0.25 at the GT) but 1.3 and 2.3 px (lit template; unlit 1.8 and
+# 2.7) in two of the views that show it most (at the GT 0.26 and 0.28), and was reported converged. ``contour_worst_px`` is the
+# k-th largest offset over all the object's views (k = max(2, 5 % of them): two views must agree,
+# one view fooled by a strong neighbouring edge does not decide); above OK_PX the pose is uncertain.
+WORST_VIEWS_FRAC = 0.05
+CLEAR_VIEW_FRAC = 0.5
 SIGMA_OK_MM = 2.0
 CONF_SIGMA_MM = 4.0
 MOVE_TOL_MM = 0.25
@@ -142,7 +155,8 @@ def _profiles(mag: np.ndarray, uv: np.ndarray, n: np.ndarray, s: np.ndarray) -> 
 
 def contour_offset_px(image_mag: np.ndarray, template_mag: np.ndarray, instance: np.ndarray,
                       depth_mm: np.ndarray, label: int, min_px: int = 15, reach_px: float = 3.0,
-                      max_shift_px: float = CONTOUR_TRUNC_PX, min_ncc: float = 0.3) -> float:
+                      max_shift_px: float = CONTOUR_TRUNC_PX, min_ncc: float = 0.3,
+                      return_length: bool = False) -> float | tuple[float, int]:
     """How far (px) the image's edges are from the template's, across the visible contour.
 
     The contour pixels are split into four sectors by the direction of their outward normal. In
@@ -156,8 +170,15 @@ def contour_offset_px(image_mag: np.ndarray, template_mag: np.ndarray, instance:
     |offset| over the sectors whose best correlation is >= ``min_ncc`` (two sectors must agree, so
     one sector fooled by a nearby strong edge does not decide; the only one if just one
     qualifies), capped at ``max_shift_px``; NaN when no sector qualifies (no contrast:
-    unverifiable, not wrong)."""
+    unverifiable, not wrong). ``return_length``: also the number of visible contour pixels."""
     uv, n = visible_contour(instance, depth_mm, label)
+    off = _sector_offset(image_mag, template_mag, uv, n, min_px, reach_px, max_shift_px, min_ncc)
+    return (off, len(uv)) if return_length else off
+
+
+def _sector_offset(image_mag: np.ndarray, template_mag: np.ndarray, uv: np.ndarray, n: np.ndarray, min_px: int,
+                   reach_px: float, max_shift_px: float, min_ncc: float) -> float:
+    """:func:`contour_offset_px` of the visible contour pixels ``uv`` with outward normals ``n``."""
     if len(uv) < min_px:
         return float("nan")
     s = np.arange(-reach_px, reach_px + 1e-9, 0.5)
@@ -191,6 +212,23 @@ def contour_offset_px(image_mag: np.ndarray, template_mag: np.ndarray, instance:
         return float("nan")
     offs.sort(reverse=True)
     return offs[1] if len(offs) >= 2 else offs[0]
+
+
+def worst_views_px(offsets_px, lengths_px=None) -> float:
+    """The k-th largest of an object's per-view contour offsets (px; NaN entries ignored), k =
+    max(2, ceil(``WORST_VIEWS_FRAC`` * n)); NaN with fewer than two views. ``lengths_px`` (same
+    order): the visible contour's length (pixels) per view; only the views that show at least
+    ``CLEAR_VIEW_FRAC`` of the object's longest visible contour count (in a view where it is
+    mostly hidden, the few contour pixels left may lie beside an occluder's edges)."""
+    x = np.asarray(offsets_px, float)
+    if lengths_px is not None and len(x):
+        ln = np.asarray(lengths_px, float)
+        x = x[ln >= CLEAR_VIEW_FRAC * ln.max()]
+    v = np.sort(x[np.isfinite(x)])[::-1]
+    if len(v) < 2:
+        return float("nan")
+    k = max(2, int(np.ceil(WORST_VIEWS_FRAC * len(v))))
+    return float(v[min(k, len(v)) - 1])
 
 
 def shift_limit_px(init_scatter_px: float, width_px: int = REF_WIDTH_PX) -> float:
@@ -270,11 +308,13 @@ class PoseStatus:
 def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, observed: bool,
              numerical_failure: bool = False, width_px: int = REF_WIDTH_PX, turned_deg: float = 0.0,
              shifted_px: float = 0.0, shift_limit_px: float = float("inf"), turn_gain: float = float("nan"),
-             turn_fit: float = float("nan"), turn_label: str = "", own_contour: bool = True) -> PoseStatus:
+             turn_fit: float = float("nan"), turn_label: str = "", own_contour: bool = True,
+             worst_contour_px: float = float("nan")) -> PoseStatus:
     """Status and confidence of one pose (see the module docstring for the rules). ``contour_px``
     is measured in an image ``width_px`` wide; the thresholds ``OK_PX`` / ``FAIL_PX`` hold at
     ``REF_WIDTH_PX`` (YCB-V's 640 px) and scale with the width, so an offset means the same
-    angular (and metric) misalignment at any resolution."""
+    angular (and metric) misalignment at any resolution. ``worst_contour_px``: the object's
+    :func:`worst_views_px` over all its views (same thresholds: above ``OK_PX`` uncertain)."""
     if numerical_failure:
         return PoseStatus("failed", 0.0, "numerical failure")
     reasons = []
@@ -314,6 +354,9 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         return PoseStatus("failed", min(conf, 0.1), f"contour {contour_px:.2f} px off the image edges")
     if np.isfinite(contour_px) and contour_px > ok_px:
         reasons.append(f"contour {contour_px:.2f} px off the image edges")
+    elif np.isfinite(worst_contour_px) and worst_contour_px > ok_px:
+        reasons.append(f"contour {worst_contour_px:.2f} px off the image edges in some of its views")
+        conf *= 0.5
     if s is None:
         reasons.append("no uncertainty")
     elif s > SIGMA_OK_MM:

@@ -35,7 +35,7 @@ from .suite_report import visibility, write_report
 ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant", "im_id", "obj_id",
               "tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "dx_mm", "dy_mm", "dz_mm", "init_add_mm", "init_prj_px",
               "sigma_tx_mm", "sigma_ty_mm", "sigma_tz_mm", "sigma_r_deg", "status", "confidence", "contour_px",
-              "time_s", "n_frames")
+              "time_s", "n_frames", "contour_worst_px", "reason")
 VARIANTS = {"using all": {}, "w/o f_edge": {"use_edge": False}, "w/o f_point": {"use_point": False},
             "w/o f_t": {"use_temporal": False}}
 
@@ -150,7 +150,9 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 "sigma_r_deg": sp["sigma_stat_r_deg"] / f[3] if sp else float("nan"),
                 "status": res.status.get(k, "failed"), "confidence": float(res.confidence.get(k, 0.0)),
                 "contour_px": float(res.quality.get(oid, {}).get("contour_px", float("nan"))),
-                "time_s": dt, "n_frames": len(sc.frames)})
+                "time_s": dt, "n_frames": len(sc.frames),
+                "contour_worst_px": float(res.quality.get(oid, {}).get("contour_worst_px", float("nan"))),
+                "reason": res.reasons.get(k, "")})
     return rows
 
 
@@ -210,7 +212,7 @@ def read_rows(path: Path) -> list[dict]:
             for k, v in r.items():
                 if k in num:
                     d[k] = int(v)
-                elif k in ("clip", "kind", "init", "variant", "status"):
+                elif k in ("clip", "kind", "init", "variant", "status", "reason"):
                     d[k] = v
                 else:
                     d[k] = float(v) if v != "" else float("nan")
