@@ -731,7 +731,7 @@ def _view_contour_offsets(views: list, models: dict, obj_ids: list, ok: np.ndarr
         vr = render_view(renderer, models, obj_ids, v.K, v.width, v.height, P)
         mag = image_mags[i] if image_mags is not None else gradient_magnitude(v.image, 1.0)
         if lit and vr.normal is not None:
-            vr = dc_replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, v.image))
+            vr = dc_replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, v.image, max_px=8000))
         mag_t = gradient_magnitude(composite(vr, v.image), 1.0)
         for j in vr.obj_index:
             r, n_px = contour_offset_px(mag, mag_t, vr.instance, vr.depth_mm, vr.label_of(j), return_length=True)

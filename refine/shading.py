@@ -42,8 +42,8 @@ def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask
     ``trim`` x the median absolute residual (cast shadows, highlights, occluders the template lacks).
     At most ``max_px`` pixels (a fixed random subset). None when fewer than 50 usable pixels."""
     m = np.asarray(mask, bool)
-    a = srgb_to_linear(albedo)[m].astype(np.float64)
-    i = srgb_to_linear(image)[m].astype(np.float64)
+    a = srgb_to_linear(np.asarray(albedo)[m]).astype(np.float64)      # decode only the fitted pixels
+    i = srgb_to_linear(np.asarray(image)[m]).astype(np.float64)
     n = np.asarray(normals, np.float64)[m]
     nn = np.linalg.norm(n, axis=1)
     ok = (nn > 0.5) & (a.min(axis=1) > 2.0) & (i.max(axis=1) < 254.0)    # no albedo: no shading; saturated: clipped
@@ -78,18 +78,19 @@ def shade(albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray, coeffs: np.
     n = np.asarray(normals, np.float64)[m]
     n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-9)
     s = np.clip(sh9_basis(n) @ coeffs.T, 0.0, None)                      # (N, 3) irradiance per channel
-    out[m] = _linear_to_srgb_u8(srgb_to_linear(albedo)[m] * s)
+    out[m] = _linear_to_srgb_u8(srgb_to_linear(out[m]) * s)
     return out
 
 
 def lit_template(color: np.ndarray, normals: np.ndarray, instance: np.ndarray, image: np.ndarray,
-                 erode_px: int = 3) -> np.ndarray:
+                 erode_px: int = 3, max_px: int = 40000) -> np.ndarray:
     """One view's template ``color`` (H, W, 3 uint8, unlit) shaded by the lighting fitted to
     ``image`` over the rendered objects' pixels at least ``erode_px`` px inside their silhouettes
-    (``instance`` > 0). The unlit template when the fit has too few pixels."""
+    (``instance`` > 0), at most ``max_px`` of them (:func:`fit_shading`). The unlit template when
+    the fit has too few pixels."""
     import cv2
 
     obj = np.asarray(instance) > 0
     inner = cv2.erode(obj.astype(np.uint8), np.ones((2 * erode_px + 1,) * 2, np.uint8)).astype(bool) if erode_px > 0 else obj
-    C = fit_shading(image, color, normals, inner)
+    C = fit_shading(image, color, normals, inner, max_px=max_px)
     return np.asarray(color) if C is None else shade(color, normals, obj, C)
