@@ -20,7 +20,7 @@ def main() -> None:
     from ycbvss.io.bop import load_bop_scene
     from ycbvss.pipeline.suite import build_suite, clip_scene, clips_of
     from ycbvss.refine import bundle as B
-    from ycbvss.refine.confidence import OK_PX, worst_views_px
+    from ycbvss.refine.confidence import OK_PX
     from ycbvss.refine.templates import ensure_meshes, get_renderer
     from ycbvss.progress import progress
 
@@ -33,8 +33,7 @@ def main() -> None:
     a = ap.parse_args()
     root = Path(a.suite_root)
     models, specs = build_suite(a.dataset, root, "ycbv21", quiet=True)
-    renderer = get_renderer()
-    ensure_meshes(renderer, models)
+    ensure_meshes(get_renderer(), models)
     scenes = {int(s) for s in a.scenes.split(",")}
     kinds = tuple(a.kinds.split(","))
     clips = [(s, c) for s in specs if s.scene_id in scenes for c in clips_of(s, kinds)]
@@ -49,22 +48,12 @@ def main() -> None:
         obj_ids = sorted({k[1] for k in gt})
         res = {}
         for lit in (False, True):
-            pv: dict = {}
-            ln: dict = {}
-            for c0 in range(0, len(views), 40):
-                idx = list(range(c0, min(c0 + 40, len(views))))
-                imgs.keep(idx)
-                sub_len: dict = {}
-                sub = B._view_contour_offsets([views[i] for i in idx], models, obj_ids, np.ones(len(obj_ids), bool), gt,
-                                              renderer, lengths=sub_len, lit=lit)
-                pv.update({idx[k]: d for k, d in sub.items()})
-                ln.update({idx[k]: d for k, d in sub_len.items()})
-            imgs.keep([])
+            pv, ln = B._contour_offsets_all_views(views, models, obj_ids, np.ones(len(obj_ids), bool), gt, imgs, lit=lit)
+            worst = B._worst_views(pv, ln, obj_ids)
             for o in obj_ids:
-                seen = [i for i in pv if o in pv[i]]
+                seen = [pv[i][o] for i in pv if o in pv[i]]
                 if seen:
-                    res.setdefault(o, {})[lit] = (float(np.median([pv[i][o] for i in seen])),
-                                                  worst_views_px([pv[i][o] for i in seen], [ln[i][o] for i in seen]))
+                    res.setdefault(o, {})[lit] = (float(np.median(seen)), worst[o])
         for o, d in res.items():
             per.append((clip.kind, o, d))
     t = Table(["clip-objects", "median: max unlit", "median: max lit", "worst views: p95 unlit", "worst views: p95 lit",

@@ -1098,31 +1098,47 @@ def _initialise_scene(views: list, models: dict, obj_ids: list, obs: dict, opt: 
     return pb0, known, syms
 
 
-def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, opt: RefineOptions,
-                      imgs: _SceneImages, n_views: int = 8, chunk: int = 40) -> tuple[dict, np.ndarray]:
-    """Contour offsets of every view, images loaded ``chunk`` at a time (bounded memory). Returns
-    (per-object quality from up to ``n_views`` evenly spaced views, :func:`_object_quality`, with
-    ``contour_worst_px`` from all views, :func:`ycbvss.refine.confidence.worst_views_px`; per-view median over its objects' offsets (n,), NaN where no contour is visible): a camera left
-    off puts every object of its view off the image edges, which the per-object median over a few
-    views does not see."""
-    n = len(views)
+def _contour_offsets_all_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict,
+                               imgs: _SceneImages, chunk: int = 40, lit: bool = True) -> tuple[dict, dict]:
+    """:func:`_view_contour_offsets` of every view (lit template by default, as the status reads
+    them), images loaded ``chunk`` at a time (bounded memory): (view index -> obj_id -> offset px,
+    view index -> obj_id -> visible contour pixels)."""
     renderer = get_renderer()
     per_view: dict[int, dict[int, float]] = {}
     lengths: dict[int, dict[int, int]] = {}
-    for c0 in range(0, n, max(chunk, 1)):
-        idx = list(range(c0, min(c0 + chunk, n)))
+    for c0 in range(0, len(views), max(chunk, 1)):
+        idx = list(range(c0, min(c0 + chunk, len(views))))
         imgs.keep(idx)
         sub_len: dict = {}
-        sub = _view_contour_offsets([views[i] for i in idx], models, obj_ids, ok, poses, renderer, lengths=sub_len,
-                                    lit=True)
+        sub = _view_contour_offsets([views[i] for i in idx], models, obj_ids, ok, poses, renderer, lengths=sub_len, lit=lit)
         per_view.update({idx[k]: d for k, d in sub.items()})
         lengths.update({idx[k]: d for k, d in sub_len.items()})
     imgs.keep([])
-    q_idx = np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))
-    quality = _object_quality({int(i): per_view[int(i)] for i in q_idx}, models, obj_ids)
+    return per_view, lengths
+
+
+def _worst_views(per_view: dict, lengths: dict, obj_ids: list) -> dict[int, float]:
+    """obj_id -> :func:`ycbvss.refine.confidence.worst_views_px` over every view it has a contour offset in."""
+    out = {}
     for o in obj_ids:
         seen = [i for i in per_view if o in per_view[i]]
-        quality[o]["contour_worst_px"] = worst_views_px([per_view[i][o] for i in seen], [lengths[i][o] for i in seen])
+        out[o] = worst_views_px([per_view[i][o] for i in seen], [lengths[i][o] for i in seen])
+    return out
+
+
+def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, opt: RefineOptions,
+                      imgs: _SceneImages, n_views: int = 8, chunk: int = 40) -> tuple[dict, np.ndarray]:
+    """Contour offsets of every view (:func:`_contour_offsets_all_views`). Returns (per-object
+    quality from up to ``n_views`` evenly spaced views, :func:`_object_quality`, with
+    ``contour_worst_px`` from all views, :func:`_worst_views`; per-view median over its objects'
+    offsets (n,), NaN where no contour is visible): a camera left off puts every object of its view
+    off the image edges, which the per-object median over a few views does not see."""
+    n = len(views)
+    per_view, lengths = _contour_offsets_all_views(views, models, obj_ids, ok, poses, imgs, chunk)
+    q_idx = np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))
+    quality = _object_quality({int(i): per_view[int(i)] for i in q_idx}, models, obj_ids)
+    for o, w in _worst_views(per_view, lengths, obj_ids).items():
+        quality[o]["contour_worst_px"] = w
     view_px = np.array([float(np.median(list(per_view[i].values()))) if per_view[i] else float("nan")
                         for i in range(n)])
     return quality, view_px

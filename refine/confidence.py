@@ -6,8 +6,8 @@ Three measurements per object of a scene:
 - ``contour_px``: the median, over up to ``n_views`` views, of the offset (px) between the
   visible exterior contour of the object's template at the refined pose and the image's edge,
   measured per normal direction (:func:`contour_offset_px`; the template lit by the lighting
-  fitted to the view, :func:`ycbvss.refine.shading.lit_template`, since 2026-11-26). An object placed far along its ray
-  or turned away shows its contour off the image edges by pixels; a correct pose puts it within
+  fitted to the view, :func:`ycbvss.refine.shading.lit_template`, since 2026-11-26). An object
+  placed far along its ray or turned away shows its contour off the image edges by pixels; a correct pose puts it within
   a fraction of a pixel. Per view, the median of its objects' offsets is taken too (every view of
   the scene), and a pose's contour counts as the larger of its object's and its view's: a camera
   solved wrongly puts every object of its view off the image edges while the objects fit the
@@ -31,9 +31,9 @@ Three measurements per object of a scene:
 
 Status: ``failed`` for a numerical failure (NaN, singular system) or a contour clearly off the
 image edges (``contour_px > FAIL_PX``; both px thresholds are for 640-px-wide images, as YCB-V's,
-and scale with the width); ``uncertain`` when the contour is loose (``> OK_PX``; in the median view or in the worst views), the calibrated
-``sigma_add_mm`` exceeds ``SIGMA_OK_MM``, the object turned more than ``MAX_TURN_DEG`` from its
-initial pose (modulo symmetries), a copy of it turned 20-40 deg about a model axis fits the texture
+and scale with the width); ``uncertain`` when the contour is loose (``> OK_PX``; in the median
+view or in the worst views), the calibrated ``sigma_add_mm`` exceeds ``SIGMA_OK_MM``, the object
+turned more than ``MAX_TURN_DEG`` from its initial pose (modulo symmetries), a copy of it turned 20-40 deg about a model axis fits the texture
 inside its silhouette better (:func:`ycbvss.refine.turn_check.turned_wrong`), or its projected centre moved farther from the initial poses' than
 :func:`shift_limit_px` allows (median over views), the pose was still
 moving, the object had no image terms, or no visible contour of its own (a view's offset over
@@ -77,9 +77,11 @@ SHIFT_SCATTER_K = 3.0
 # measure above is a median over a few views, and on the suite (medium clip of scene 1, seed 5) a
 # large clamp mostly hidden behind a can in the first frames ended 12 mm too close and 3 deg turned,
 # its median offset 0.23 px (0.25 at the GT) but 1.3 and 2.3 px (lit template; unlit 1.8 and
-# 2.7) in two of the views that show it most (at the GT 0.26 and 0.28), and was reported converged. ``contour_worst_px`` is the
-# k-th largest offset over all the object's views (k = max(2, 5 % of them): two views must agree,
-# one view fooled by a strong neighbouring edge does not decide); above OK_PX the pose is uncertain.
+# 2.7) in two of the views that show it most (at the GT 0.26 and 0.28), and was reported
+# converged. ``contour_worst_px`` is the k-th largest offset over all the object's views (k =
+# max(2, 5 % of them): two views must agree, one view fooled by a strong neighbouring edge does
+# not decide), counting views that show at least CLEAR_VIEW_FRAC of its longest visible contour;
+# above OK_PX the pose is uncertain.
 WORST_VIEWS_FRAC = 0.05
 CLEAR_VIEW_FRAC = 0.5
 SIGMA_OK_MM = 2.0

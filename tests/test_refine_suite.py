@@ -161,25 +161,19 @@ def test_contour_check_reads_the_blender_images_at_the_exact_gt_and_off_it(suite
     1.9-3.0 px."""
     from ycbvss.pipeline.suite import clip_scene
     from ycbvss.refine import bundle as B
-    from ycbvss.refine.confidence import OK_PX, worst_views_px
+    from ycbvss.refine.confidence import OK_PX
     from ycbvss.refine.templates import ensure_meshes, get_renderer
 
     models, scene, clip = suite_ci
     sc = clip_scene(scene, clip)
     frames, views, imgs, _ = B._scene_views(sc, None)
-    imgs.keep(range(len(views)))
     gt = {(f.im_id, i.obj_id): i.T_m2c for f in frames for i in f.instances}
     obj_ids = sorted({k[1] for k in gt})
     ensure_meshes(get_renderer(), models)
 
     def worst(poses, lit):
-        lengths: dict = {}
-        pv = B._view_contour_offsets(views, models, obj_ids, np.ones(len(obj_ids), bool), poses, lengths=lengths, lit=lit)
-        out = {}
-        for o in obj_ids:
-            seen = [i for i in pv if o in pv[i]]
-            out[o] = worst_views_px([pv[i][o] for i in seen], [lengths[i][o] for i in seen])
-        return out
+        pv, lengths = B._contour_offsets_all_views(views, models, obj_ids, np.ones(len(obj_ids), bool), poses, imgs, lit=lit)
+        return B._worst_views(pv, lengths, obj_ids)
 
     at_gt = worst(gt, lit=True)
     moved = {k: T.copy() for k, T in gt.items()}
