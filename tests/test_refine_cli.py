@@ -67,3 +67,45 @@ def test_cli_refine_bad_init_is_one_line_error(bop_root, tmp_path, capsys):
                "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "nope.csv" in err[0]
+
+
+def test_cli_refine_known_cameras_keeps_the_given_cameras(bop_root, tmp_path):
+    """--known-cameras: the written cameras are scene_camera.json's (relative to the first frame),
+    and the objects are still refined."""
+    from ycbvss.geometry.se3 import inv_T
+    from ycbvss.io.bop import read_scene_camera
+    from ycbvss.io.results import read_bop19_csv
+
+    root, init, gt = bop_root
+    out = tmp_path / "out"
+    rc = main(["refine", "--dataset", str(root), "--split", "test", "--init", str(root / "init.csv"),
+               "--out", str(out), "--max-iters", "3", "--known-cameras"])
+    assert rc == 0
+    given = read_scene_camera(root / "test" / "000001" / "scene_camera.json")
+    got = read_scene_camera(out / "test" / "000001" / "scene_camera.json")
+    g0, w0 = inv_T(given[0]["T_w2c"]), inv_T(got[0]["T_w2c"])
+    for im in given:
+        rel_given, rel_got = given[im]["T_w2c"] @ g0, got[im]["T_w2c"] @ w0
+        assert np.abs(rel_given[:3, 3] - rel_got[:3, 3]).max() < 1e-6    # mm
+        assert np.abs(rel_given[:3, :3] - rel_got[:3, :3]).max() < 1e-9
+    est = read_bop19_csv(next(out.glob("*.csv")))
+    err0 = np.mean([np.linalg.norm(init[k][:3, 3] - gt[k][:3, 3]) for k in gt])
+    err1 = np.mean([np.linalg.norm(e.T_m2c[:3, 3] - gt[(e.im_id, e.obj_id)][:3, 3]) for e in est])
+    assert err1 < err0 / 2, (err0, err1)
+
+
+def test_cli_refine_known_cameras_without_them_is_one_line_error(bop_root, tmp_path, capsys):
+    import shutil
+
+    root, _, _ = bop_root
+    bare = tmp_path / "bare"
+    shutil.copytree(root, bare)
+    p = bare / "test" / "000001" / "scene_camera.json"
+    cams = json.loads(p.read_text())
+    for v in cams.values():
+        v.pop("cam_R_w2c"), v.pop("cam_t_w2c")
+    p.write_text(json.dumps(cams))
+    rc = main(["refine", "--dataset", str(bare), "--split", "test", "--init", str(bare / "init.csv"),
+               "--out", str(tmp_path / "o"), "--known-cameras"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc != 0 and len(err) == 1 and "T_w2c" in err[0] and "scene 1" in err[0], err

@@ -33,7 +33,12 @@ def register(sub) -> None:
     p.add_argument("--no-temporal", action="store_true", help="drop the temporal (view-to-view) term")
     p.add_argument("--keyframe-step", type=int, default=0,
                    help="optimise every N-th frame jointly, then the others camera-only (0: all jointly)")
-    p.add_argument("--alpha", type=float, default=None, help="weight of the point term (default 1)")
+    p.add_argument("--known-cameras", action="store_true",
+                   help="keep every frame's camera pose from scene_camera.json (cam_R_w2c, cam_t_w2c) and refine "
+                        "the objects only; use it when the cameras are known (e.g. synthetic data): with free "
+                        "cameras the scene's scale rests on the objects' apparent size alone "
+                        "(bench/results/ycbv21/bias_sources.md)")
+    p.add_argument("--alpha", type=float, default=None, help="weight of the point term (default 5)")
     p.add_argument("--beta", type=float, default=None, help="weight of the temporal term (default 1)")
     p.add_argument("--max-iters", type=int, default=None, help="outer (re-render) iterations per level")
     p.set_defaults(func=_run)
@@ -79,7 +84,7 @@ def _run(args: argparse.Namespace) -> int:
     scenes = None if args.scenes is None else parse_videos(",".join(args.scenes), "scene list")
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)
     opt = RefineOptions(use_edge=not args.no_edge, use_point=not args.no_point, use_temporal=not args.no_temporal,
-                        keyframe_step=args.keyframe_step)
+                        keyframe_step=args.keyframe_step, fix_cameras=args.known_cameras)
     for k in ("alpha", "beta", "max_iters"):
         if getattr(args, k) is not None:
             setattr(opt, k, getattr(args, k))
