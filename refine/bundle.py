@@ -105,6 +105,14 @@ class RefineOptions:
     # offset by f_point's). Off by default.
     template_shading: bool = False
     edge_dilation_k: float = 0.0      # > 0: a shared outward offset of each (view, object)'s contour samples is marginalised out of f_edge, its prior worth this many samples (refine.terms.EdgeTerm)
+    # > 0: interior texture (Canny) edge samples only where the rendered normals turn less than this
+    # within 2 px (refine.interior_edges: on rounded edges a scanned texture's baked shading and the
+    # scene's lighting put different edges; crease and self-occlusion samples are kept). Suite long-2,
+    # known cameras, from the exact GT: the foam brick's R 0.52 -> 0.08 deg at 20 (0.22 at 45). Off by
+    # default: from the paper's init (short 3, 4, 7, 9, seed 0) the textureless mug of short-9 then
+    # ends 30 deg turned about its axis (was 0.9; 18.5 at 45 deg) and short-7's banana 16.6 deg (was
+    # 0.4): their rotation rests on exactly these samples (the mug's handle, the banana's ends)
+    interior_max_turn_deg: float = 0.0
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     verify_coarse: bool = True        # undo an object's coarse-level move the next finer level's edges disagree with
@@ -310,6 +318,7 @@ class _Stage:
                and level_sigma <= DILATION_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
         lit = app and opt.template_shading
         jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
+                                            interior_max_turn_deg=opt.interior_max_turn_deg,
                                             fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur,
                                             image=pb.views[i].image if app else None, normals=dil,
                                             appearance_color=self._lit_color(i, vr) if lit and vr.normal is not None else None))
@@ -462,7 +471,8 @@ class _Stage:
         tot, cnt = np.zeros(len(pb.obj_ids)), np.zeros(len(pb.obj_ids))
         for i in self.term_views:
             vr = self.render(i)
-            cand = view_edge_candidates(vr, creases=opt.edge_creases, fold_min_angle_deg=self.fold_angle,
+            cand = view_edge_candidates(vr, creases=opt.edge_creases, interior_max_turn_deg=opt.interior_max_turn_deg,
+                                        fold_min_angle_deg=self.fold_angle,
                                         blur_sigma_px=self._blur_match_sigma(fields))
             for j, X in select_edge_samples(vr, pb.views[i].K, cand, opt.n_edge_points, rng).items():
                 if len(X) >= opt.min_visible_px:

@@ -16,6 +16,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
+from .interior_edges import flat_at
 from .cubic_kernel import cubic_sample
 
 
@@ -346,6 +347,10 @@ def interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, labe
     gray = cv2.cvtColor(np.ascontiguousarray(color[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
     inside = m[y0:y1, x0:x1] > 0
     edges = (cv2.Canny(gray, canny_lo, canny_hi) > 0) & inside
+    if texture_max_turn_deg > 0 and surface_normal is not None:
+        v, u = np.nonzero(edges)
+        edges[v, u] = flat_at(surface_normal[y0:y1, x0:x1], ic, np.stack([u, v], 1).astype(np.float64),
+                              texture_max_turn_deg)
     v, u = np.nonzero(edges)
     uv = np.stack([u, v], 1).astype(np.float64) + subpixel_offsets(gray, v, u)
     dep = depth[v + y0, u + x0]
@@ -443,11 +448,16 @@ def rim_depth(front_mm: np.ndarray, back_mm: np.ndarray, same_object: np.ndarray
 def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, normal: np.ndarray | None,
                         canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2,
                         fold_min_angle_deg: float = 25.0, back_depth: np.ndarray | None = None,
-                        back_inst: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        back_inst: np.ndarray | None = None, texture_max_turn_deg: float = 0.0,
+                        surface_normal: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,).
     ``normal`` None: no crease edges; ``fold_min_angle_deg``: see :func:`crease_edges`. With
     ``back_depth`` / ``back_inst`` a self-occlusion edge (a depth jump within the object, the near
-    part's rim) is lifted at the rim's depth (:func:`rim_depth`), as the exterior contour."""
+    part's rim) is lifted at the rim's depth (:func:`rim_depth`), as the exterior contour.
+    ``texture_max_turn_deg`` > 0 with ``surface_normal`` (the rendered normals, H x W x 3): texture
+    (Canny) edges only where the surface is flat at the pixel scale
+    (:func:`ycbvss.refine.interior_edges.flat_at`); where one is dropped a crease edge may take its
+    place."""
     box = _labels_box(inst, 2)
     if box is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
@@ -458,6 +468,10 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     inside = (ic > 0) & (cv2.erode(lab, k) == lab) & (cv2.dilate(lab, k) == lab) if erode_px > 0 else ic > 0
     gray = cv2.cvtColor(np.ascontiguousarray(color[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
     edges = (cv2.Canny(gray, canny_lo, canny_hi) > 0) & inside
+    if texture_max_turn_deg > 0 and surface_normal is not None:
+        v, u = np.nonzero(edges)
+        edges[v, u] = flat_at(surface_normal[y0:y1, x0:x1], ic, np.stack([u, v], 1).astype(np.float64),
+                              texture_max_turn_deg)
     v, u = np.nonzero(edges)
     uv = np.stack([u, v], 1).astype(np.float64) + subpixel_offsets(gray, v, u)
     dep, labs = depth[v + y0, u + x0], ic[v, u]

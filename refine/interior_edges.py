@@ -1,0 +1,40 @@
+"""Where the template's interior texture edges can be trusted: not on surface curved at the pixel scale.
+
+f_edge's interior samples are edges of the template, which is the model's albedo (texture),
+optionally lit by a smooth, shadow-free lighting (:mod:`ycbvss.refine.shading`). On surface that
+turns quickly within a pixel or two -- rounded box edges, can rims, the foam brick's bevels -- the
+YCB-V scans' textures carry the capture's baked shading, whose edge lies wherever the capture light
+put it, while the image's shading edge lies wherever the scene's light puts it; neither is the
+geometric crease. :func:`flat_at` tells where the rendered normals within a small window turn less
+than a limit (``RefineOptions.interior_max_turn_deg``, off by default; measurements there and in
+bench/results/ycbv21/README.md, "interior texture edges on curved surface").
+"""
+from __future__ import annotations
+
+import numpy as np
+
+MAX_TURN_DEG = 20.0     # flat_at's default limit (deg) on the normals' turn within FLAT_RADIUS_PX
+FLAT_RADIUS_PX = 2
+
+
+def flat_at(normal: np.ndarray, instance: np.ndarray, uv: np.ndarray, max_turn_deg: float = MAX_TURN_DEG,
+            radius_px: int = FLAT_RADIUS_PX) -> np.ndarray:
+    """(N,) bool: at the pixels uv (N, 2; rounded), the rendered unit normals (H, W, 3) of the same
+    instance within +-radius_px turn less than ``max_turn_deg`` from the pixel's own (at 640 px
+    width the radius covers about 2 mm at 1 m)."""
+    if len(uv) == 0:
+        return np.zeros(0, bool)
+    H, W = instance.shape
+    u = np.clip(np.round(uv[:, 0]).astype(int), 0, W - 1)
+    v = np.clip(np.round(uv[:, 1]).astype(int), 0, H - 1)
+    n0, i0 = normal[v, u], instance[v, u]
+    cos_min = np.ones(len(u))
+    for dy in range(-radius_px, radius_px + 1):
+        for dx in range(-radius_px, radius_px + 1):
+            if dx == 0 and dy == 0:
+                continue
+            uu, vv = np.clip(u + dx, 0, W - 1), np.clip(v + dy, 0, H - 1)
+            same = instance[vv, uu] == i0
+            c = np.where(same, (normal[vv, uu] * n0).sum(axis=1), 1.0)
+            cos_min = np.minimum(cos_min, c)
+    return cos_min >= np.cos(np.radians(max_turn_deg))
