@@ -16,6 +16,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
+from . import srgb
 from .interior_edges import flat_at
 from .cubic_kernel import cubic_sample
 
@@ -80,14 +81,13 @@ def gradient_magnitude(image: np.ndarray, sigma_px: float) -> np.ndarray:
 
 
 def srgb_to_linear(image: np.ndarray) -> np.ndarray:
-    """8-bit sRGB-encoded image -> linear light float32 in [0, 255] (IEC 61966-2-1 decoding through
-    colour-science, as a 256-entry table). Blur and anti-aliasing mix light linearly, so an edge's
-    gradient peak is symmetric only in linear light; in the encoded image it leans towards the
-    darker side (a bright object looks larger, a dark one smaller)."""
+    """8-bit sRGB-encoded image -> linear light float32 in [0, 255] (IEC 61966-2-1 decoding,
+    colour-science's values as a table: :mod:`ycbvss.refine.srgb`). Blur and anti-aliasing mix
+    light linearly, so an edge's gradient peak is symmetric only in linear light; in the encoded
+    image it leans towards the darker side (a bright object looks larger, a dark one smaller)."""
     global _SRGB_LUT
     if _SRGB_LUT is None:
-        import colour  # lazy: colour-science takes ~1 s to import
-        _SRGB_LUT = (colour.cctf_decoding(np.arange(256) / 255.0, function="sRGB") * 255.0).astype(np.float32)
+        _SRGB_LUT = (srgb.tables()["decode_u8"] * 255.0).astype(np.float32)
     img = np.asarray(image)
     if img.dtype != np.uint8:
         img = np.clip(np.rint(img), 0, 255).astype(np.uint8)
@@ -98,10 +98,10 @@ _SRGB_LUT: np.ndarray | None = None
 
 
 def linear_to_srgb(x: np.ndarray) -> np.ndarray:
-    """Linear light in [0, 255] -> sRGB-encoded values in [0, 255], float (IEC 61966-2-1 encoding
-    through colour-science; the inverse of :func:`srgb_to_linear`)."""
-    import colour  # lazy: colour-science takes ~1 s to import
-    return colour.cctf_encoding(np.clip(np.asarray(x) / 255.0, 0.0, 1.0), function="sRGB") * 255.0
+    """Linear light in [0, 255] -> sRGB-encoded values in [0, 255], float (IEC 61966-2-1 encoding,
+    colour-science's values as a table: :mod:`ycbvss.refine.srgb`; the inverse of
+    :func:`srgb_to_linear`)."""
+    return srgb.encode(np.asarray(x) / 255.0) * 255.0
 
 
 def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float = 100.0,

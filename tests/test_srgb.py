@@ -1,0 +1,39 @@
+"""refine.srgb: the stored sRGB tables are colour-science's values; no colour-science import at refine time."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+
+
+def test_tables_match_colour_science():
+    import colour
+
+    from ycbvss.refine.edge import linear_to_srgb, srgb_to_linear
+    from ycbvss.refine.srgb import ENCODE_SIZE, build_tables, tables
+
+    stored, fresh = tables(), build_tables()
+    assert set(stored) == set(fresh) and len(stored["encode"]) == ENCODE_SIZE + 1
+    for k in fresh:
+        assert np.abs(stored[k] - fresh[k]).max() < 1e-12, k
+    codes = np.arange(256, dtype=np.uint8)
+    dec = colour.cctf_decoding(codes / 255.0, function="sRGB") * 255.0
+    assert np.abs(srgb_to_linear(codes) - dec).max() < 1e-4            # float32 table; measured 7.5e-6
+    x = np.concatenate([np.linspace(0.0, 255.0, 200001), [0.0031308 * 255.0, 1e-6, 254.9999]])
+    enc = colour.cctf_encoding(np.clip(x / 255.0, 0.0, 1.0), function="sRGB") * 255.0
+    assert np.abs(linear_to_srgb(x) - enc).max() < 0.01                # interpolated; measured 0.0041 (of 255)
+    assert np.abs(linear_to_srgb(srgb_to_linear(codes)) - codes).max() < 0.01
+
+
+def test_lit_template_does_not_import_colour_science():
+    code = ("import sys, numpy as np\n"
+            "from ycbvss.refine.shading import lit_template\n"
+            "rng = np.random.default_rng(0)\n"
+            "img = rng.integers(0, 255, (40, 40, 3), dtype=np.uint8)\n"
+            "n = np.zeros((40, 40, 3)); n[..., 2] = -1.0\n"
+            "inst = np.ones((40, 40), np.int32)\n"
+            "lit_template(img, n, inst, img)\n"
+            "print('colour' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False", out.stdout + out.stderr
