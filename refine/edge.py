@@ -347,10 +347,6 @@ def interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, labe
     gray = cv2.cvtColor(np.ascontiguousarray(color[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
     inside = m[y0:y1, x0:x1] > 0
     edges = (cv2.Canny(gray, canny_lo, canny_hi) > 0) & inside
-    if texture_max_turn_deg > 0 and surface_normal is not None:
-        v, u = np.nonzero(edges)
-        edges[v, u] = flat_at(surface_normal[y0:y1, x0:x1], ic, np.stack([u, v], 1).astype(np.float64),
-                              texture_max_turn_deg)
     v, u = np.nonzero(edges)
     uv = np.stack([u, v], 1).astype(np.float64) + subpixel_offsets(gray, v, u)
     dep = depth[v + y0, u + x0]
