@@ -93,10 +93,13 @@ MOVE_TOL_MM = 0.25
 # ``RefineOptions.min_baseline_deg`` (short clips) need larger factors than wide ones: their few,
 # nearly identical views leave systematic errors the covariance does not see. Measured factors:
 # narrow (2.61, 1.29, 1.30, 6.55), wide (0.57, 0.36, 0.87, 1.37); the wide ones are floored at 1.
-# Medium (baseline 10-35 deg, its own group since 2026-11-25; fitted with its floor on the medium
-# clips of scenes 1, 2, 4-7, seeds 0 and 5, code d1f2d6a): (0.74, 1.08, 0.32, 1.48), floored at 1.
+# Medium (baseline 10-35 deg, its own group since 2026-11-25): re-fitted 2026-11-26 with its floor
+# on the development medium clips only (scenes 1, 2, 4-7, seed 0; 1260 poses, code 96d0a62; the
+# earlier fit, code d1f2d6a, had also used seed 5, a held-out seed): (0.88, 1.32, 0.61, 1.77),
+# floored at 1 and rounded up. With the previous (1.0, 1.1, 1.0, 1.5) the development poses were
+# covered 0.922 / 0.883 / 0.961 / 0.883 (tx, ty, tz, R).
 SIGMA_SCALE_NARROW = (2.6, 1.3, 1.3, 6.6)
-SIGMA_SCALE_MEDIUM = (1.0, 1.1, 1.0, 1.5)
+SIGMA_SCALE_MEDIUM = (1.0, 1.35, 1.0, 1.8)
 SIGMA_SCALE_WIDE = (1.0, 1.0, 1.0, 1.4)
 # Systematic error (tx, ty, tz mm in the camera frame, R deg) of a refined per-view pose that the
 # covariance cannot see: the cost's own bias (edge appearance and the scene scale it sets, lighting,
