@@ -51,5 +51,10 @@ def encode(linear01: np.ndarray) -> np.ndarray:
 
 
 if __name__ == "__main__":
-    np.savez(TABLES, **build_tables())
+    import os
+
+    tmp = TABLES.with_suffix(".npz.tmp")
+    with open(tmp, "wb") as fh:           # written whole, then renamed over the old tables
+        np.savez(fh, **build_tables())
+    os.replace(tmp, TABLES)
     print(TABLES)
