@@ -17,8 +17,8 @@ import cv2
 import numpy as np
 
 from . import srgb
-from .interior_edges import flat_at
 from .cubic_kernel import cubic_sample
+from .interior_edges import flat_at
 
 
 def to_gray_f32(image: np.ndarray) -> np.ndarray:

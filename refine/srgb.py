@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 ENCODE_SIZE = 4096
+_ENCODE_GRID = np.linspace(0.0, 1.0, ENCODE_SIZE + 1)      # linear light of the encode table's entries
 TABLES = Path(__file__).with_name("srgb_tables.npz")
 _TABLES: dict | None = None
 
@@ -39,15 +40,10 @@ def tables() -> dict[str, np.ndarray]:
     return _TABLES
 
 
-def decode_u8(codes: np.ndarray) -> np.ndarray:
-    """8-bit sRGB codes (uint8 array) -> linear light in [0, 1], float64."""
-    return tables()["decode_u8"][codes]
-
-
 def encode(linear01: np.ndarray) -> np.ndarray:
     """Linear light (clipped to [0, 1]) -> sRGB-encoded value in [0, 1], float64."""
     x = np.clip(np.asarray(linear01, np.float64), 0.0, 1.0)
-    return np.interp(x, np.linspace(0.0, 1.0, ENCODE_SIZE + 1), tables()["encode"])
+    return np.interp(x, _ENCODE_GRID, tables()["encode"])
 
 
 if __name__ == "__main__":
