@@ -113,6 +113,21 @@ class RefineOptions:
     # ends 30 deg turned about its axis (was 0.9; 18.5 at 45 deg) and short-7's banana 16.6 deg (was
     # 0.4): their rotation rests on exactly these samples (the mug's handle, the banana's ends)
     interior_max_turn_deg: float = 0.0
+    # at the finest blur level, interior texture (Canny) samples only where the template's edge is
+    # sharp (refine.interior_edges.sharp_at: |grad| at sigma 1 over sigma 2.5 >= this; a step 2.0-2.3;
+    # 0: off). A soft colour ramp's image edge moves with the scene's shading (bench_interior_offsets:
+    # median |offset| at the exact GT 0.149 px below 1.8, 0.088 above 2.2; the banana's soft edges
+    # 0.333). The coarser levels keep them: they carry the capture of the textureless mug's and the
+    # banana's rotation (gated at every level, short-9's mug ends 18 deg and short-7's banana 15 deg
+    # turned). Suite, development clips, paper init (against the defaults without it): short 1, 2,
+    # 4-7 seeds 0-1 tx/ty/tz/R/PRJ 0.92/0.57/1.41/1.31/1.11 -> 0.67/0.49/1.23/1.17/0.88, ADD < 2 mm
+    # 0.737 -> 0.780; medium 1, 2, 4-7 seed 0 0.41/0.31/0.92/0.90/0.55 -> 0.39/0.30/0.87/0.89/0.54,
+    # ADD < 2 mm 0.823 -> 0.886; long 1-2 seed 0 R 0.246 -> 0.216 deg but tz 0.37 -> 0.58 mm (long-1's
+    # whole scene moves: signed dz -0.52 -> -0.95 mm, the free-camera scale of
+    # bench/results/ycbv21/bias_sources.md). Hence on narrow-baseline bundles only by default
+    # (``interior_sharpness_bundles`` "narrow"; "all": every bundle)
+    interior_min_sharpness: float = 1.8
+    interior_sharpness_bundles: str = "narrow"
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     verify_coarse: bool = True        # undo an object's coarse-level move the next finer level's edges disagree with
@@ -233,6 +248,9 @@ class _Stage:
         self._lit: dict[int, np.ndarray] = {}     # view index -> lit template colour, per build_terms call
         self._T_m_starts: list[np.ndarray] = []
         self.fold_angle = opt.fold_min_angle_deg
+        self.at_finest = True            # run() sets it per blur level (interior_min_sharpness applies at the finest)
+        # interior_min_sharpness of this stage's bundle (the keyframe stage of a narrow-baseline bundle sets it)
+        self.min_sharpness = opt.interior_min_sharpness if opt.interior_sharpness_bundles == "all" else 0.0
         # last outer iteration's change of every camera / object: (mm, deg) arrays
         self.numerical_failure = False    # a linear system stayed singular / non-finite at every damping
         self.cam_move = (np.zeros(len(pb.T_c)), np.zeros(len(pb.T_c)))
@@ -317,8 +335,10 @@ class _Stage:
         dil = (opt.edge_dilation_k > 0.0
                and level_sigma <= DILATION_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
         lit = app and opt.template_shading
+        sharp = self.min_sharpness if self.at_finest else 0.0
         jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
                                             interior_max_turn_deg=opt.interior_max_turn_deg,
+                                            interior_min_sharpness=sharp,
                                             fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur,
                                             image=pb.views[i].image if app else None, normals=dil,
                                             appearance_color=self._lit_color(i, vr) if lit and vr.normal is not None else None))
@@ -559,6 +579,7 @@ class _Stage:
         for li, sigma in enumerate(sigmas):
             n_outer = opt.max_iters if li == len(sigmas) - 1 else min(opt.coarse_iters, opt.max_iters)
             finest = li == len(sigmas) - 1 and len(sigmas) > 1
+            self.at_finest = li == len(sigmas) - 1
             self.fold_angle = 180.0 if (finest and not opt.folds_at_finest) else opt.fold_min_angle_deg
             if opt.object_ridge == "finest":     # the point-motion ridge at the finest blur level only
                 pb.obj_moments = self.moments if li == len(sigmas) - 1 else None
@@ -1286,6 +1307,9 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     if opt.object_ridge == "narrow" and narrow:     # the point-motion ridge on a narrow-baseline bundle
         pb.obj_moments = stage.moments
     stats["object_ridge"] = opt.object_ridge in (True, "finest") or (opt.object_ridge == "narrow" and narrow)
+    if narrow and opt.interior_sharpness_bundles == "narrow":
+        stage.min_sharpness = opt.interior_min_sharpness
+    stats["interior_min_sharpness"] = stage.min_sharpness
     base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
     terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
     if stage.free_gauge:
@@ -1322,6 +1346,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if opt.object_ridge not in (False, True, "finest", "narrow"):
         raise YcbvssError(f"RefineOptions.object_ridge must be False, True, 'finest' or 'narrow', got {opt.object_ridge!r}",
                           where=f"scene {scene.scene_id}")
+    if opt.interior_sharpness_bundles not in ("narrow", "all"):
+        raise YcbvssError(f"RefineOptions.interior_sharpness_bundles must be 'narrow' or 'all', got "
+                          f"{opt.interior_sharpness_bundles!r}", where=f"scene {scene.scene_id}")
     if not (opt.turn_check and opt.turn_restart):
         return _refine_scene_once(scene, models, init, opt, images)[0]
     # the warnings of a pass are held back until it is known which pass's result is returned, so

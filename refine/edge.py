@@ -18,7 +18,7 @@ import numpy as np
 
 from . import srgb
 from .cubic_kernel import cubic_sample
-from .interior_edges import flat_at
+from .interior_edges import flat_at, sharp_at
 
 
 def to_gray_f32(image: np.ndarray) -> np.ndarray:
@@ -445,7 +445,8 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
                         canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2,
                         fold_min_angle_deg: float = 25.0, back_depth: np.ndarray | None = None,
                         back_inst: np.ndarray | None = None, texture_max_turn_deg: float = 0.0,
-                        surface_normal: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        surface_normal: np.ndarray | None = None,
+                        texture_min_sharpness: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,).
     ``normal`` None: no crease edges; ``fold_min_angle_deg``: see :func:`crease_edges`. With
     ``back_depth`` / ``back_inst`` a self-occlusion edge (a depth jump within the object, the near
@@ -453,7 +454,8 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     ``texture_max_turn_deg`` > 0 with ``surface_normal`` (the rendered normals, H x W x 3): texture
     (Canny) edges only where the surface is flat at the pixel scale
     (:func:`ycbvss.refine.interior_edges.flat_at`); where one is dropped a crease edge may take its
-    place."""
+    place. ``texture_min_sharpness`` > 0: texture edges only where they are sharp
+    (:func:`ycbvss.refine.interior_edges.sharp_at`), not on soft colour ramps."""
     box = _labels_box(inst, 2)
     if box is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
@@ -464,6 +466,9 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     inside = (ic > 0) & (cv2.erode(lab, k) == lab) & (cv2.dilate(lab, k) == lab) if erode_px > 0 else ic > 0
     gray = cv2.cvtColor(np.ascontiguousarray(color[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
     edges = (cv2.Canny(gray, canny_lo, canny_hi) > 0) & inside
+    if texture_min_sharpness > 0:
+        v, u = np.nonzero(edges)
+        edges[v, u] = sharp_at(gray, v, u, texture_min_sharpness)
     if texture_max_turn_deg > 0 and surface_normal is not None:
         v, u = np.nonzero(edges)
         edges[v, u] = flat_at(surface_normal[y0:y1, x0:x1], ic, np.stack([u, v], 1).astype(np.float64),

@@ -117,7 +117,7 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          fold_min_angle_deg: float = 25.0, blur_sigma_px: float | None = None,
                          image: np.ndarray | None = None, normals: bool = False,
                          appearance_color: np.ndarray | None = None,
-                         interior_max_turn_deg: float = 0.0) -> EdgeCandidates:
+                         interior_max_turn_deg: float = 0.0, interior_min_sharpness: float = 0.0) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -132,7 +132,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     normals (``n_c``, f_edge's contour-dilation nuisance). ``interior_max_turn_deg`` > 0: interior
     texture (Canny) candidates only where the surface is flat at the pixel scale
     (:func:`ycbvss.refine.interior_edges.flat_at`; needs ``vr.normal``); crease and self-occlusion
-    candidates are kept."""
+    candidates are kept. ``interior_min_sharpness`` > 0: interior texture candidates only where
+    the template's edge is sharp (:func:`ycbvss.refine.interior_edges.sharp_at`)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance)
     if blur_sigma_px is not None:
         geo = uv_c
@@ -144,7 +145,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, vr.color, vr.normal if creases else None,
                                          erode_px=erode_px, fold_min_angle_deg=fold_min_angle_deg,
                                          back_depth=vr.back_depth_mm, back_inst=vr.back_instance,
-                                         texture_max_turn_deg=interior_max_turn_deg, surface_normal=vr.normal)
+                                         texture_max_turn_deg=interior_max_turn_deg, surface_normal=vr.normal,
+                                         texture_min_sharpness=interior_min_sharpness)
     n_c = contour_normals(uv_c, l_c, vr.instance, blur_sigma_px or 1.0) if normals else None
     return EdgeCandidates(uv_c, d_c, l_c, uv_i, d_i, l_i, n_c)
 

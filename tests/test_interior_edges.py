@@ -54,3 +54,43 @@ def test_interior_points_drop_texture_edges_on_a_rounded_edge_only():
     near = lambda uv, x: int(np.sum(np.abs(uv[:, 0] - x) < 2.0))
     assert near(uv_all, 11.5) > 20 and near(uv_all, 29.5) > 20          # both texture edges without the limit
     assert near(uv_flat, 11.5) == near(uv_all, 11.5) and near(uv_flat, 29.5) == 0
+
+
+def _step_and_ramp(H: int = 48, W: int = 64) -> np.ndarray:
+    """Grey image (H, W) float: a step of 80 grey levels at x = 16 (softened like a rendered edge,
+    sigma 0.5 px) and a linear ramp of 80 levels from x = 36 to x = 48 (a soft 'baked shading' edge)."""
+    import cv2
+
+    x = np.arange(W, dtype=np.float64)
+    row = 60.0 + 80.0 * (x >= 16) + 80.0 * np.clip((x - 36.0) / 12.0, 0.0, 1.0)
+    img = np.repeat(row[None], H, axis=0).astype(np.float32)
+    return cv2.GaussianBlur(img, (0, 0), 0.5)
+
+
+def test_sharpness_ratio_of_a_step_and_of_a_wide_ramp():
+    from ycbvss.refine.interior_edges import MIN_SHARPNESS, sharpness_ratio
+
+    g = _step_and_ramp()
+    r = sharpness_ratio(g, np.array([24, 24]), np.array([15, 42]))
+    assert 1.9 < r[0] < 2.6            # a step: 2.0 here (2.28 from the two blurs alone; Sobel smooths too)
+    assert r[1] < 1.2                  # a 12 px ramp: the blur hardly changes its slope
+    assert r[1] < MIN_SHARPNESS <= r[0]
+
+
+def test_interior_points_drop_soft_texture_edges_only():
+    """With ``texture_min_sharpness`` the template's Canny edges on the soft ramp go, the step's stay."""
+    from ycbvss.refine.edge import all_interior_points
+
+    g = np.clip(_step_and_ramp(), 0, 255).astype(np.uint8)
+    H, W = g.shape
+    inst = np.zeros((H, W), np.int32)
+    inst[4:H - 4, 4:W - 4] = 1
+    depth = np.where(inst > 0, 800.0, 0.0).astype(np.float32)
+    color = np.repeat(g[..., None], 3, axis=2)
+    # Canny's thresholds lowered so that the ramp's gentle slope (6.7 levels / px) yields candidates
+    uv_all, _, _ = all_interior_points(inst, depth, color, None, canny_lo=5.0, canny_hi=10.0)
+    uv_sharp, _, _ = all_interior_points(inst, depth, color, None, canny_lo=5.0, canny_hi=10.0, texture_min_sharpness=1.8)
+    near_step = lambda uv: int(np.sum(np.abs(uv[:, 0] - 15.5) < 2.0))
+    on_ramp = lambda uv: int(np.sum((uv[:, 0] > 34.0) & (uv[:, 0] < 50.0)))
+    assert near_step(uv_all) > 20 and on_ramp(uv_all) > 20
+    assert near_step(uv_sharp) == near_step(uv_all) and on_ramp(uv_sharp) == 0
