@@ -44,6 +44,8 @@ def test_subpixel_recovery_from_5px_init_textured_and_textureless(scene4):
     assert set(res.poses) == set(gt)
     # a 30 deg arc: the medium sigma group, and no point-motion ridge by default (wide bundles)
     assert res.stats["baseline_group"] == "medium" and res.stats["object_ridge"] is False
+    # ... nor lit templates (template_shading="narrow", edge_appearance off)
+    assert res.stats["template_shading"] is False and res.stats["edge_appearance"] is False
     textured = [o for o, m in ps.models.items() if not m.textureless]
     plain = [o for o, m in ps.models.items() if m.textureless]
     et, ep, ea = (_mean_err(res.poses, gt, pts, K, textured), _mean_err(res.poses, gt, pts, K, plain),
@@ -197,8 +199,19 @@ def test_viewing_baseline_decides_the_blur_schedule(scene4):
     assert res.stats["baseline_deg"] < 1.0
     # a narrow bundle: its own sigma group, and (default object_ridge="narrow") the point-motion ridge
     assert res.stats["baseline_group"] == "narrow" and res.stats["object_ridge"] is True
+    # ... and f_point's templates lit by each view's fitted lighting (template_shading="narrow")
+    assert res.stats["template_shading"] is True and res.stats["edge_appearance"] is False
     assert sorted({r["stage"].split(" outer")[0] for r in res.log if r["stage"].startswith("keyframes")}) == \
         ["keyframes sigma=1", "keyframes sigma=2"]       # 320 px wide: (4, 2, 1) px levels scale to (2, 1)
+
+
+def test_lit_template_options_are_checked(scene4):
+    from ycbvss.errors import YcbvssError
+
+    ps, imgs, gt, pts = scene4
+    for name in ("template_shading", "edge_appearance"):
+        with pytest.raises(YcbvssError, match=f"RefineOptions.{name} must be True, False or 'narrow'"):
+            refine_scene(ps.scene, ps.models, gt, RefineOptions(**{name: "wide"}), images=imgs)
 
 
 def test_rim_depth_option_refines_like_the_default(scene4):
