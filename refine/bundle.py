@@ -1326,9 +1326,11 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     if narrow and opt.interior_sharpness_bundles == "narrow":
         stage.min_sharpness = opt.interior_min_sharpness
     stats["interior_min_sharpness"] = stage.min_sharpness
-    if narrow:
-        stage.appearance = stage.appearance or opt.edge_appearance == "narrow"
-        stage.shading = stage.shading or opt.template_shading == "narrow"
+    # "narrow": narrow-baseline bundles; "medium": those and the medium group (baseline < WIDE_BASELINE_DEG)
+    group_now = baseline_group(narrow, stats["baseline_deg"])
+    lit_groups = {"narrow": ("narrow",), "medium": ("narrow", "medium")}
+    stage.appearance = stage.appearance or group_now in lit_groups.get(opt.edge_appearance, ())
+    stage.shading = stage.shading or group_now in lit_groups.get(opt.template_shading, ())
     stats["edge_appearance"], stats["template_shading"] = stage.appearance, stage.shading
     base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
     terms_kf = stage.run(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
@@ -1367,8 +1369,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         raise YcbvssError(f"RefineOptions.object_ridge must be False, True, 'finest' or 'narrow', got {opt.object_ridge!r}",
                           where=f"scene {scene.scene_id}")
     for name in ("edge_appearance", "template_shading"):
-        if getattr(opt, name) not in (True, False, "narrow"):
-            raise YcbvssError(f"RefineOptions.{name} must be True, False or 'narrow', got {getattr(opt, name)!r}",
+        if getattr(opt, name) not in (True, False, "narrow", "medium"):
+            raise YcbvssError(f"RefineOptions.{name} must be True, False, 'narrow' or 'medium', got {getattr(opt, name)!r}",
                               where=f"scene {scene.scene_id}")
     if opt.interior_sharpness_bundles not in ("narrow", "all"):
         raise YcbvssError(f"RefineOptions.interior_sharpness_bundles must be 'narrow' or 'all', got "

@@ -63,8 +63,9 @@ def test_short_clip_from_the_papers_initial_error(suite_ci):
     init = np.mean([r["init_add_mm"] for r in rows])
     assert 20.0 < init < 24.5, init                      # the paper's initial error (mean ADD 22.1 mm)
     for o, v in e.items():
-        # measured (this clip, seed 0): tx <= 0.22, ty <= 0.31, R <= 1.12 deg (foam brick), PRJ <= 0.52 px,
-        # tz <= 2.41 mm (mug: the short-clip target 1.5 mm is missed, see the README)
+        # measured (this clip, seed 0; lit templates on narrow bundles, 2026-11-26): tx <= 0.18, ty <= 0.26,
+        # R <= 1.04 deg (foam brick), PRJ <= 0.47 px, tz <= 1.99 mm (large clamp 1.99, mug 1.89: the
+        # short-clip target 1.5 mm is missed, see the README); before: 0.22 / 0.31 / 1.12 / 0.52 / 2.41
         assert v["tx_mm"] <= 0.4 and v["ty_mm"] <= 0.5 and v["prj_px"] <= 0.7, (o, v)
         assert v["tz_mm"] <= 3.5 and v["r_deg"] <= 1.6, (o, v)
         # no pose ends far off unless it is flagged
@@ -82,8 +83,9 @@ def test_short_clip_from_the_papers_initial_error(suite_ci):
 
 
 def test_bias_from_the_exact_ground_truth(suite_ci):
-    """Started from the exact GT; measured: lateral <= 0.35 mm, depth 0.16..2.82 mm (the mug; objects
-    drift away from the camera on this 7-degree clip), R <= 1.13 deg (foam brick)."""
+    """Started from the exact GT; measured (lit templates on narrow bundles, 2026-11-26): lateral <=
+    0.28 mm, depth 0.27..1.97 mm (the mug), R <= 1.06 deg (foam brick); before: lateral <= 0.35,
+    depth 0.16..2.82, R <= 1.13."""
     from ycbvss.pipeline.suite_run import Run, run_one
 
     models, scene, clip = suite_ci
@@ -93,11 +95,14 @@ def test_bias_from_the_exact_ground_truth(suite_ci):
         assert v["tz_mm"] <= 3.5 and v["r_deg"] <= 1.6, (o, v)
 
 
-def test_known_cameras_remove_most_of_the_depth_bias(suite_ci):
-    """From the exact GT, the same clip with the cameras held at the GT (`--known-cameras`): the
-    depth bias is mostly the free-camera bundle's scene scale, which only the objects' apparent size
+def test_known_cameras_reduce_the_depth_bias(suite_ci):
+    """From the exact GT, the same clip with the cameras held at the GT (`--known-cameras`): much of
+    the depth bias is the free-camera bundle's scene scale, which only the objects' apparent size
     fixes (bench/results/ycbv21/bias_sources.md). Measured (this clip, seed 0): mean tz over the
-    five objects free 1.16 mm (0.19-2.10), known cameras 0.47 mm (0.05-1.15)."""
+    five objects free 0.97 mm, known cameras 0.59 mm (ratio 0.61). With unlit templates on narrow
+    bundles (the default before 2026-11-26, session 29) free 1.16, known 0.47 (ratio 0.41): the lit
+    templates take part of f_point's pull off the free bundle's scale and leave the contours' own
+    per-object depth bias, which known cameras do not remove."""
     from ycbvss.pipeline.suite_run import Run, run_one
 
     models, scene, clip = suite_ci
@@ -105,9 +110,9 @@ def test_known_cameras_remove_most_of_the_depth_bias(suite_ci):
     known = _per_object(run_one(Run(clip, "gt", 0), scene, models, {"fix_cameras": True}))
     tz_free = np.mean([v["tz_mm"] for v in free.values()])
     tz_known = np.mean([v["tz_mm"] for v in known.values()])
-    assert tz_known <= 0.7 and tz_known < 0.6 * tz_free, (tz_free, tz_known)
+    assert tz_known <= 0.7 and tz_known < 0.75 * tz_free, (tz_free, tz_known)
     for o, v in known.items():
-        assert v["tx_mm"] <= 0.2 and v["ty_mm"] <= 0.3 and v["tz_mm"] <= 1.5, (o, v)   # measured <= 0.04 / 0.15 / 1.15
+        assert v["tx_mm"] <= 0.2 and v["ty_mm"] <= 0.3 and v["tz_mm"] <= 1.5, (o, v)   # measured <= 0.11 / 0.15 / 1.22
 
 
 def test_an_object_placed_far_along_its_ray_is_recovered_or_flagged(suite_ci):

@@ -210,7 +210,7 @@ def test_lit_template_options_are_checked(scene4):
 
     ps, imgs, gt, pts = scene4
     for name in ("template_shading", "edge_appearance"):
-        with pytest.raises(YcbvssError, match=f"RefineOptions.{name} must be True, False or 'narrow'"):
+        with pytest.raises(YcbvssError, match=f"RefineOptions.{name} must be True, False, 'narrow' or 'medium'"):
             refine_scene(ps.scene, ps.models, gt, RefineOptions(**{name: "wide"}), images=imgs)
 
 
