@@ -89,8 +89,9 @@ def ensure_meshes(renderer, models: dict[int, ObjectModel], obj_ids) -> None:
     """Upload the (untextured) geometry of the needed models once."""
     for oid in sorted(set(obj_ids)):
         key = mesh_key(models[oid])
-        if not renderer.has_mesh(key):
-            renderer.add_mesh(key, _geometry_only(models[oid]))
+        owner = models[oid] if models[oid].path is None else None    # keys with id(model) keep the model referenced
+        if not (renderer.has_mesh_of(key, owner) if owner is not None else renderer.has_mesh(key)):
+            renderer.add_mesh(key, _geometry_only(models[oid]), owner=owner)
 
 
 def _large_depth(renderer, K: np.ndarray, width: int, height: int, key, T: np.ndarray) -> np.ndarray:

@@ -30,10 +30,13 @@ def mesh_key(obj_id: int, model) -> tuple:
 
 
 def ensure_meshes(renderer, models: dict) -> None:
+    """Upload each model's mesh once per model object. The key holds ``id(model)``; the renderer keeps
+    the model referenced with it, so a later model at a freed model's address (same id, same obj_id,
+    e.g. two procedural scenes in one process) is uploaded anew instead of drawn with the old mesh."""
     for oid, m in models.items():
         k = mesh_key(oid, m)
-        if not renderer.has_mesh(k):
-            renderer.add_mesh(k, m.mesh)
+        if not renderer.has_mesh_of(k, m):
+            renderer.add_mesh(k, m.mesh, owner=m)
 
 
 @dataclass

@@ -165,6 +165,9 @@ class Renderer:
                               where="ycbvss.render")
         self.cull_back_faces = cull_back_faces
         self._meshes: dict[Hashable, _GpuMesh] = {}
+        # key -> the object a key was made from (add_mesh(owner=)): held so that a key built from id(owner)
+        # is never matched by another object that Python later puts at the same address
+        self._owners: dict[Hashable, object] = {}
         self._programs: dict[tuple[bool, bool], object] = {}
         self._fbos: OrderedDict = OrderedDict()
         self._max_fbos = int(max_cached_framebuffers)
@@ -175,11 +178,17 @@ class Renderer:
     def has_mesh(self, key: Hashable) -> bool:
         return key in self._meshes
 
+    def has_mesh_of(self, key: Hashable, owner: object) -> bool:
+        """``key`` is uploaded and was added for this very ``owner`` object (see :meth:`add_mesh`)."""
+        return key in self._meshes and self._owners.get(key) is owner
+
     def mesh_keys(self) -> list:
         return list(self._meshes)
 
-    def add_mesh(self, key: Hashable, mesh_mm, texture_rgb: np.ndarray | None = None) -> None:
+    def add_mesh(self, key: Hashable, mesh_mm, texture_rgb: np.ndarray | None = None, owner: object = None) -> None:
         """Upload a trimesh mesh (vertices in mm) under ``key`` (re-adding a key replaces it).
+        ``owner``: the object the key was made from (e.g. a model whose ``id`` is part of the key); it is
+        kept referenced while the mesh is, and :meth:`has_mesh_of` matches only it.
 
         Colour: ``texture_rgb`` (H, W, 3) uint8 with the mesh's UV if given, else the mesh's own texture
         (TextureVisuals), else its vertex colours (ColorVisuals), else grey 0.6.
@@ -202,6 +211,8 @@ class Renderer:
         self._upload_buffers(g, (V, F), (Vm, Fm), normals, uv_gl, vcol)
         g.texture = self._upload_texture(image[..., :3]) if image is not None else None
         self._meshes[key] = g
+        if owner is not None:
+            self._owners[key] = owner
 
     def _upload_buffers(self, g: _GpuMesh, mesh: tuple, merged: tuple, normals, uv_gl, vcol) -> None:
         """Vertex buffers (positions, merged positions, normals, UV, colours) and the index buffers of
@@ -223,6 +234,7 @@ class Renderer:
                         if len(F) else None)
 
     def remove_mesh(self, key: Hashable) -> None:
+        self._owners.pop(key, None)
         g = self._meshes.pop(key, None)
         if g is not None:
             g.release()
