@@ -158,6 +158,10 @@ class RefineOptions:
     n_init_points: int = 200
     compute_uncertainty: bool = True
     fix_cameras: bool = False         # keep the cameras given by the frames' T_w2c (known camera poses)
+    # diagnostic: keep every object at its initial world pose and refine the cameras only -- from the
+    # exact GT it shows which way each view's image evidence alone turns its camera
+    # (bench/suite_camera_drift.py, bench/results/ycbv21/README.md "camera path drift")
+    fix_objects: bool = False
     # the keyframe bundle solves with every camera free (the cost depends on relative poses only; the
     # damping keeps the world where it is) and moves the world back to the first camera after each
     # solve. With the first camera held fixed, correcting its registration to the scene takes a
@@ -1309,7 +1313,8 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     """Joint refinement of all keyframe cameras and all objects, coarse to fine."""
     cam_free_kf = np.zeros(len(kf), bool) if opt.fix_cameras else (np.ones(len(kf), bool) if opt.free_gauge else None)
     imgs.keep(kf)
-    pb = BundleProblem([views[i] for i in kf], obj_ids, pb0.T_c[kf], pb0.T_m, cam_free=cam_free_kf, obj_free=known)
+    pb = BundleProblem([views[i] for i in kf], obj_ids, pb0.T_c[kf], pb0.T_m, cam_free=cam_free_kf,
+                       obj_free=np.zeros_like(known) if opt.fix_objects else known)
     pb.obj_known = known
     stage = _Stage(pb, models, opt, log, stats, list(range(len(kf))),
                    _pairs(list(range(len(kf))), opt.temporal_neighbours) if len(kf) > 1 else [], "keyframes")
@@ -1375,6 +1380,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if opt.interior_sharpness_bundles not in ("narrow", "all"):
         raise YcbvssError(f"RefineOptions.interior_sharpness_bundles must be 'narrow' or 'all', got "
                           f"{opt.interior_sharpness_bundles!r}", where=f"scene {scene.scene_id}")
+    if opt.fix_cameras and opt.fix_objects:
+        raise YcbvssError("RefineOptions.fix_cameras and fix_objects together leave nothing to refine",
+                          where=f"scene {scene.scene_id}")
     if not (opt.turn_check and opt.turn_restart):
         return _refine_scene_once(scene, models, init, opt, images)[0]
     # the warnings of a pass are held back until it is known which pass's result is returned, so
