@@ -260,3 +260,26 @@ def test_held_objects_keep_their_pose_and_the_cameras_are_refined(scene4):
         assert np.allclose(rel, rel_gt, atol=1e-6), (a, b)
     with pytest.raises(YcbvssError, match="fix_cameras and fix_objects together"):
         refine_scene(ps.scene, ps.models, gt, RefineOptions(fix_cameras=True, fix_objects=True), images=imgs)
+
+
+def test_slide_restart_only_when_an_object_left_its_basin(scene4):
+    """``slide_restart``: nothing slid on this scene, so the result is the single pass's; the rule
+    that picks the objects is the status's "projection moved" one."""
+    from types import SimpleNamespace
+
+    from ycbvss.refine.bundle import _slid_objects
+    from ycbvss.refine.confidence import shift_limit_px
+
+    ps, imgs, gt, pts = scene4
+    opt = dict(max_iters=2, compute_uncertainty=False)
+    a = refine_scene(ps.scene, ps.models, gt, RefineOptions(slide_restart=False, **opt), images=imgs)
+    b = refine_scene(ps.scene, ps.models, gt, RefineOptions(slide_restart=True, **opt), images=imgs)
+    assert "slide_restart" not in b.stats and b.stats["edge_sigmas_px"] == a.stats["edge_sigmas_px"]
+    assert all(np.array_equal(a.poses[k], b.poses[k]) for k in a.poses)
+    lim = shift_limit_px(2.0, 640)
+    fake = SimpleNamespace(quality={1: {"shift_px": lim + 1, "init_scatter_px": 2.0},
+                                    2: {"shift_px": lim - 1, "init_scatter_px": 2.0}, 3: {}})
+    assert _slid_objects(fake, 640) == [1]
+    from ycbvss.errors import YcbvssError
+    with pytest.raises(YcbvssError, match="RefineOptions.slide_restart must be True, False or 'coarse'"):
+        refine_scene(ps.scene, ps.models, gt, RefineOptions(slide_restart="narrow"), images=imgs)
