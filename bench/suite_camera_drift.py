@@ -33,28 +33,23 @@ import numpy as np
 MIN_TURN_DEG = 2.0
 
 
-def _centre(T: np.ndarray) -> np.ndarray:
-    return -T[:3, :3].T @ T[:3, 3]
-
-
-def _angle_deg(R: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
-
-
 def path_figures(T_gt: list[np.ndarray], T_ref: list[np.ndarray]) -> tuple[float, float]:
     """(path ratio, turn ratio) of refined world-to-camera poses ``T_ref`` against ``T_gt`` (same
     frames, any world each): both expressed relative to their first camera; only frames whose GT
     turn from the first is at least MIN_TURN_DEG count."""
+    from ycbvss.geometry.so3 import rotation_angle_deg
+    from ycbvss.procedural.layout import camera_centre
+
     g0, r0 = np.linalg.inv(T_gt[0]), np.linalg.inv(T_ref[0])
     ratios, a_gt, a_ref = [], [], []
     for Tg, Tr in zip(T_gt[1:], T_ref[1:]):
         g, r = Tg @ g0, Tr @ r0
-        ag = _angle_deg(g[:3, :3])
+        ag = float(rotation_angle_deg(g[:3, :3]))
         if ag < MIN_TURN_DEG:
             continue
-        ratios.append(np.linalg.norm(_centre(r)) / np.linalg.norm(_centre(g)))
+        ratios.append(np.linalg.norm(camera_centre(r)) / np.linalg.norm(camera_centre(g)))
         a_gt.append(ag)
-        a_ref.append(_angle_deg(r[:3, :3]))
+        a_ref.append(float(rotation_angle_deg(r[:3, :3])))
     if not ratios:
         return float("nan"), float("nan")
     a_gt, a_ref = np.asarray(a_gt), np.asarray(a_ref)

@@ -1479,8 +1479,15 @@ def _refine_scene_pass(scene, models: dict, init: dict, opt: RefineOptions, imag
 
 
 def _replay(caught: list) -> None:
-    """Issue again warnings caught by ``warnings.catch_warnings(record=True)`` (the caller's filters apply)."""
+    """Issue again warnings caught by ``warnings.catch_warnings(record=True)`` (the caller's filters apply).
+    They were recorded under "always"; a repeat of the same text from the same place is issued once,
+    as the default filter would have shown it."""
+    seen = set()
     for x in caught:
+        key = (str(x.message), x.category, x.filename, x.lineno)
+        if key in seen:
+            continue
+        seen.add(key)
         warnings.warn_explicit(x.message, x.category, x.filename, x.lineno, source=x.source)
 
 
