@@ -207,7 +207,12 @@ class RefineOptions:
     # short clips 1-9, seeds 0 and 5, tx/ty/tz/R/PRJ 1.34/0.37/1.86/0.88/1.28 -> 0.50/0.46/1.54/0.98/0.68
     # (the stalled turn about the object's centre had been taken as a turn about the camera, i.e. a
     # lateral shift), no silent pose; medium and long clips keep the eps * I ridge.
-    object_ridge: bool | str = "narrow"  # False: never; True: every level; "finest": the finest blur level only; "narrow": narrow-baseline bundles only
+    # Default "by_baseline" (2026-11-26, session 31): narrow bundles as "narrow", wide ones (baseline
+    # >= refine.confidence.WIDE_BASELINE_DEG, the long clips) at the finest blur level, medium ones
+    # never. Long clips 1-3, paper init, seeds 0 and 5 (bench/results/ycbv21/README.md, "Point-motion
+    # ridge on wide bundles"): see the measured figures there; medium clips keep the eps * I ridge
+    # (the banana's f_edge rest, above).
+    object_ridge: bool | str = "by_baseline"  # False: never; True: every level; "finest": the finest blur level only; "narrow": narrow-baseline bundles only; "by_baseline": see above
     pose_tol_mm: float = 0.05         # converged: the last outer iteration moved no pose more than this
     pose_tol_deg: float = 0.02
     seed: int = 0
@@ -260,6 +265,7 @@ class _Stage:
         ensure_meshes(self.renderer, {oid: models[oid] for oid in pb.obj_ids})
         if opt.object_ridge is True and pb.obj_moments is None:   # the solver's ridge on objects in mm of point motion
             pb.obj_moments = self.moments
+        self.ridge_finest = opt.object_ridge == "finest"   # the keyframe bundle sets it by its baseline group
         self.rng = np.random.default_rng(opt.seed)
         self._norm: dict[int, np.ndarray] = {}
         self._me: dict[int, np.ndarray] = {}
@@ -612,7 +618,7 @@ class _Stage:
             finest = li == len(sigmas) - 1 and len(sigmas) > 1
             self.at_finest = li == len(sigmas) - 1
             self.fold_angle = 180.0 if (finest and not opt.folds_at_finest) else opt.fold_min_angle_deg
-            if opt.object_ridge == "finest":     # the point-motion ridge at the finest blur level only
+            if self.ridge_finest:     # the point-motion ridge at the finest blur level only
                 pb.obj_moments = self.moments if li == len(sigmas) - 1 else None
             t0 = time.perf_counter()
             fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_interp,
@@ -661,6 +667,17 @@ class _Stage:
             if li == len(sigmas) - 1:
                 self.stats["finest_iters"] = outer + 1
         return terms
+
+
+def _ridge_levels(object_ridge: bool | str, group: str) -> str:
+    """At which blur levels a keyframe bundle of viewing-baseline ``group`` ("narrow", "medium",
+    "wide"; :func:`ycbvss.refine.confidence.baseline_group`) puts the point-motion ridge on its
+    objects (``RefineOptions.object_ridge``): "every", "finest" or "none"."""
+    if object_ridge is True or (object_ridge in ("narrow", "by_baseline") and group == "narrow"):
+        return "every"
+    if object_ridge == "finest" or (object_ridge == "by_baseline" and group == "wide"):
+        return "finest"
+    return "none"
 
 
 _VIEW_POOL: tuple[int, ThreadPoolExecutor] | None = None   # (owning pid, executor)
@@ -1336,14 +1353,16 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     # (edges of its neighbours merged into its own); from 4 px it stayed within 5 mm.
     stats["baseline_deg"] = round(viewing_baseline_deg(pb.T_c, pb.T_m[known]), 3)
     narrow = len(kf) == 1 or stats["baseline_deg"] < opt.min_baseline_deg
-    if opt.object_ridge == "narrow" and narrow:     # the point-motion ridge on a narrow-baseline bundle
+    group_now = baseline_group(narrow, stats["baseline_deg"])
+    ridge = _ridge_levels(opt.object_ridge, group_now)
+    if ridge == "every":     # the point-motion ridge at every level (True, or a narrow bundle)
         pb.obj_moments = stage.moments
-    stats["object_ridge"] = opt.object_ridge in (True, "finest") or (opt.object_ridge == "narrow" and narrow)
+    stage.ridge_finest = ridge == "finest"
+    stats["object_ridge"] = ridge
     if narrow and opt.interior_sharpness_bundles == "narrow":
         stage.min_sharpness = opt.interior_min_sharpness
     stats["interior_min_sharpness"] = stage.min_sharpness
     # "narrow": narrow-baseline bundles; "medium": those and the medium group (baseline < WIDE_BASELINE_DEG)
-    group_now = baseline_group(narrow, stats["baseline_deg"])
     lit_groups = {"narrow": ("narrow",), "medium": ("narrow", "medium")}
     stage.appearance = stage.appearance or group_now in lit_groups.get(opt.edge_appearance, ())
     stage.shading = stage.shading or group_now in lit_groups.get(opt.template_shading, ())
@@ -1383,8 +1402,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     better than before; otherwise the first result stands (those poses ``uncertain``).
     ``stats["turn_restart"]`` records what happened."""
     opt = options or RefineOptions()
-    if opt.object_ridge not in (False, True, "finest", "narrow"):
-        raise YcbvssError(f"RefineOptions.object_ridge must be False, True, 'finest' or 'narrow', got {opt.object_ridge!r}",
+    if opt.object_ridge not in (False, True, "finest", "narrow", "by_baseline"):
+        raise YcbvssError(f"RefineOptions.object_ridge must be False, True, 'finest', 'narrow' or 'by_baseline', got {opt.object_ridge!r}",
                           where=f"scene {scene.scene_id}")
     for name in ("edge_appearance", "template_shading"):
         if getattr(opt, name) not in (True, False, "narrow", "medium"):

@@ -337,3 +337,27 @@ def test_the_ridge_does_not_stall_an_object_turning_about_its_own_centre():
     for d in (d_true, rng.normal(size=6)):
         disp = (J @ d).reshape(-1, 3)
         assert d @ ridges[0][1] @ d == pytest.approx(np.mean(np.sum(disp ** 2, 1)), rel=1e-9)
+
+
+def test_the_point_motion_ridge_by_viewing_baseline():
+    """RefineOptions.object_ridge: at which blur levels a keyframe bundle uses the point-motion
+    ridge. Default "by_baseline": every level on narrow bundles (short clips, started at 4 px),
+    the finest level on wide ones (long clips: weakly seen turns reach the cost's rest, the coarse
+    8 px level does not turn them freely), never on medium ones (the banana's f_edge rest, 3 deg
+    off on the suite's medium clips). Other values keep their meaning; anything else is refused."""
+    from ycbvss.refine.bundle import RefineOptions, _ridge_levels, refine_scene
+
+    assert RefineOptions().object_ridge == "by_baseline"
+    got = {(v, g): _ridge_levels(v, g) for v in (False, True, "finest", "narrow", "by_baseline")
+           for g in ("narrow", "medium", "wide")}
+    assert [got[("by_baseline", g)] for g in ("narrow", "medium", "wide")] == ["every", "none", "finest"]
+    assert [got[("narrow", g)] for g in ("narrow", "medium", "wide")] == ["every", "none", "none"]
+    assert {got[(False, g)] for g in ("narrow", "medium", "wide")} == {"none"}
+    assert {got[(True, g)] for g in ("narrow", "medium", "wide")} == {"every"}
+    assert {got[("finest", g)] for g in ("narrow", "medium", "wide")} == {"finest"}
+    from types import SimpleNamespace
+
+    from ycbvss.errors import YcbvssError
+
+    with pytest.raises(YcbvssError, match="scene 7: RefineOptions.object_ridge"):
+        refine_scene(SimpleNamespace(scene_id=7), {}, {}, RefineOptions(object_ridge="wide"))

@@ -42,8 +42,8 @@ def test_subpixel_recovery_from_5px_init_textured_and_textureless(scene4):
     res = refine_scene(ps.scene, ps.models, init, RefineOptions(), images=imgs)
     assert isinstance(res, RefineResult)
     assert set(res.poses) == set(gt)
-    # a 30 deg arc: the medium sigma group, and no point-motion ridge by default (wide bundles)
-    assert res.stats["baseline_group"] == "medium" and res.stats["object_ridge"] is False
+    # a 30 deg arc: the medium sigma group, and no point-motion ridge by default (medium bundles)
+    assert res.stats["baseline_group"] == "medium" and res.stats["object_ridge"] == "none"
     # ... nor lit templates (template_shading="narrow", edge_appearance off)
     assert res.stats["template_shading"] is False and res.stats["edge_appearance"] is False
     textured = [o for o, m in ps.models.items() if not m.textureless]
@@ -197,8 +197,8 @@ def test_viewing_baseline_decides_the_blur_schedule(scene4):
                        RefineOptions(max_iters=1, coarse_iters=1, extra_iters=0, compute_uncertainty=False),
                        images={f.im_id: imgs[f.im_id], f.im_id + 100: imgs[f.im_id]})
     assert res.stats["baseline_deg"] < 1.0
-    # a narrow bundle: its own sigma group, and (default object_ridge="narrow") the point-motion ridge
-    assert res.stats["baseline_group"] == "narrow" and res.stats["object_ridge"] is True
+    # a narrow bundle: its own sigma group, and (default object_ridge="by_baseline") the point-motion ridge at every level
+    assert res.stats["baseline_group"] == "narrow" and res.stats["object_ridge"] == "every"
     # ... and f_point's templates lit by each view's fitted lighting (template_shading="narrow")
     assert res.stats["template_shading"] is True and res.stats["edge_appearance"] is False
     assert sorted({r["stage"].split(" outer")[0] for r in res.log if r["stage"].startswith("keyframes")}) == \
