@@ -7,8 +7,8 @@ tx, ty <= 0.25 mm, tz <= 0.8 mm, R <= 0.2 deg, PRJ <= 0.4 px.
 tz is the one target the demo does not hold with margin: refined from the exact GT, its objects end
 0.62-0.82 mm too close (all five the same way; 0.03 mm with the cameras fixed), a scale of the
 whole free-camera bundle that the sub-0.05 px edge lean of the sRGB-encoded render buys (see the
-README's limits; measured 2026-11-26, can_stripes tz 0.805 mm from the paper's init, 0.798 before the
-point-motion ridge on wide bundles). So the
+README's limits; can_stripes tz from the paper's init 0.809 mm on 2026-11-25, 0.798 on 2026-11-26, 0.805
+with the point-motion ridge on wide bundles, RefineOptions.object_ridge="by_baseline"). So the
 strict tz target is an expected failure that reports itself when it passes, and the guard that
 must hold is the paper's own all-object figure (Table 4, tz 0.85 mm) for every object.
 
@@ -51,7 +51,7 @@ def test_demo_scene_meets_the_per_object_targets_except_tz(demo_rows):
 
 
 @pytest.mark.xfail(strict=False, reason="issue 9: depth lean of the free-camera bundle on the demo's sRGB renders "
-                                        "(0.62-0.82 mm from the exact GT); can_stripes tz 0.805 mm")
+                                        "(0.62-0.82 mm from the exact GT); can_stripes tz 0.798-0.809 mm")
 def test_demo_scene_meets_the_tz_target(demo_rows):
     misses = {o: round(float(r["tz (mm)"]), 3) for o, r in demo_rows.items() if not float(r["tz (mm)"]) <= TARGETS["tz (mm)"]}
     assert not misses, misses

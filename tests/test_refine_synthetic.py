@@ -197,7 +197,7 @@ def test_viewing_baseline_decides_the_blur_schedule(scene4):
                        RefineOptions(max_iters=1, coarse_iters=1, extra_iters=0, compute_uncertainty=False),
                        images={f.im_id: imgs[f.im_id], f.im_id + 100: imgs[f.im_id]})
     assert res.stats["baseline_deg"] < 1.0
-    # a narrow bundle: its own sigma group, and (default object_ridge="by_baseline") the point-motion ridge at every level
+    # a narrow bundle: its own sigma group, and (default object_ridge="narrow") the point-motion ridge at every level
     assert res.stats["baseline_group"] == "narrow" and res.stats["object_ridge"] == "every"
     # ... and f_point's templates lit by each view's fitted lighting (template_shading="narrow")
     assert res.stats["template_shading"] is True and res.stats["edge_appearance"] is False
