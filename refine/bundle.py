@@ -1480,8 +1480,8 @@ def _refine_scene_pass(scene, models: dict, init: dict, opt: RefineOptions, imag
         res, turns = _refine_scene_once(scene, models, init, opt, images)
     slid = _slid_objects(res, width)
     levels = tuple(res.stats.get("edge_sigmas_px", ()))
-    coarse_only = opt.slide_restart == "coarse" and res.stats.get("baseline_group") == "narrow"
-    if not slid or len(levels) < 3 or coarse_only:
+    narrow_skipped = opt.slide_restart == "coarse" and res.stats.get("baseline_group") == "narrow"   # it started at 4 px
+    if not slid or len(levels) < 3 or narrow_skipped:
         _replay(w1)
         return res, turns
     with warnings.catch_warnings(record=True) as w2:
