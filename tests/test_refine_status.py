@@ -361,3 +361,40 @@ def test_the_point_motion_ridge_by_viewing_baseline():
 
     with pytest.raises(YcbvssError, match="scene 7: RefineOptions.object_ridge"):
         refine_scene(SimpleNamespace(scene_id=7), {}, {}, RefineOptions(object_ridge="wide"))
+
+
+def test_slide_restart_goes_on_from_finer_levels(monkeypatch):
+    """The slide restart's control flow (the passes faked): the first restart (from 4 px) still
+    slides, the second (from 2 px) does not and is kept; when a restart slides a new object it is
+    not kept and the first result stands."""
+    from types import SimpleNamespace
+
+    import ycbvss.refine.bundle as B
+
+    def run(outcomes):
+        calls = []
+
+        def once(scene, models, init, opt, images):
+            lv = tuple(opt.edge_sigmas_px or (8.0, 4.0, 2.0, 1.0))
+            calls.append(lv)
+            return SimpleNamespace(stats={"edge_sigmas_px": list(lv), "total_s": 1.0, "baseline_group": "medium",
+                                          "slid": outcomes[lv]}, log=[{"stage": f"pass {lv}"}]), {}
+
+        monkeypatch.setattr(B, "_refine_scene_once", once)
+        monkeypatch.setattr(B, "_slid_objects", lambda res, width: res.stats["slid"])
+        res, _ = B._refine_scene_pass(SimpleNamespace(frames=[]), {}, {}, B.RefineOptions(), None)
+        return res, calls
+
+    res, calls = run({(8.0, 4.0, 2.0, 1.0): [19], (4.0, 2.0, 1.0): [19], (2.0, 1.0): []})
+    assert calls == [(8.0, 4.0, 2.0, 1.0), (4.0, 2.0, 1.0), (2.0, 1.0)]
+    note = res.stats["slide_restart"]
+    assert res.stats["edge_sigmas_px"] == [2.0, 1.0] and note["kept"] and note["levels_px"] == [2.0, 1.0]
+    assert [a["kept"] for a in note["attempts"]] == [False, True] and res.stats["total_s"] == 3.0
+    assert [e["stage"] for e in res.log].count("slide restart") == 2
+
+    res, calls = run({(8.0, 4.0, 2.0, 1.0): [19], (4.0, 2.0, 1.0): [19, 5], (2.0, 1.0): [5]})
+    assert len(calls) == 3 and res.stats["edge_sigmas_px"] == [8.0, 4.0, 2.0, 1.0]
+    assert not res.stats["slide_restart"]["kept"] and res.log[-1]["message"].endswith("first result stands")
+
+    res, calls = run({(8.0, 4.0, 2.0, 1.0): [], (4.0, 2.0, 1.0): [], (2.0, 1.0): []})
+    assert calls == [(8.0, 4.0, 2.0, 1.0)] and "slide_restart" not in res.stats
