@@ -536,12 +536,16 @@ class _Stage:
         pb, opt = self.pb, self.opt
         rng = np.random.default_rng(opt.seed + 7919)
         tot, cnt = np.zeros(len(pb.obj_ids)), np.zeros(len(pb.obj_ids))
+        # renders on this thread (the GL context's), candidates on the view pool, samples drawn in
+        # view order (the same draws as one view after the other)
+        jobs = []
         for i in self.term_views:
             vr = self.render(i)
-            cand = view_edge_candidates(vr, creases=opt.edge_creases, interior_max_turn_deg=opt.interior_max_turn_deg,
-                                        fold_min_angle_deg=self.fold_angle,
-                                        blur_sigma_px=self._blur_match_sigma(fields))
-            for j, X in select_edge_samples(vr, pb.views[i].K, cand, opt.n_edge_points, rng).items():
+            jobs.append((i, vr, _view_pool().submit(
+                view_edge_candidates, vr, creases=opt.edge_creases, interior_max_turn_deg=opt.interior_max_turn_deg,
+                fold_min_angle_deg=self.fold_angle, blur_sigma_px=self._blur_match_sigma(fields))))
+        for i, vr, job in jobs:
+            for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, rng).items():
                 if len(X) >= opt.min_visible_px:
                     term = EdgeTerm([fields.get(k) for k in range(len(pb.views))], [EdgeGroup(i, j, X)])
                     tot[j] += term.cost(pb)
@@ -1285,16 +1289,22 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
             key = mesh_key(obj_ids[j], models[obj_ids[j]])
             crop, mag_c = v.image[y0:y1, x0:x1], mag[y0:y1, x0:x1]
 
-            def fit(T):
-                out = renderer.render(K, x1 - x0, y1 - y0, [(key, T)] + others, outputs=("instance", "color"))
-                m = out.instance == 1
-                tmpl = crop.copy()
-                np.copyto(tmpl, out.color, where=(out.instance > 0)[..., None])
-                return interior_ncc(mag_c, gradient_magnitude(tmpl, 1.0), m)
+            W, H = x1 - x0, y1 - y0
+            # the others once, the object alone per turn; the z-test of the two is done per pixel
+            # in _turn_ncc (the same picture as drawing them together, but each turn draws one mesh)
+            occ = (renderer.render(K, W, H, others, outputs=("depth", "color")) if others else None)
 
+            def fit(T):
+                out = renderer.render(K, W, H, [(key, T)], outputs=("depth", "color"))
+                return _view_pool().submit(_turn_ncc, crop, mag_c, out.depth_mm, out.color,
+                                           None if occ is None else occ.depth_mm, None if occ is None else occ.color)
+
+            # renders here (the GL thread), the NCCs on the view pool; results collected below
             base[j].append(fit(P[j]))
             for lab, A in turns[j]:
                 alt[j][lab].append(fit(P[j] @ A))
+    base = {j: [f.result() for f in fs] for j, fs in base.items()}
+    alt = {j: {lab: [f.result() for f in fs] for lab, fs in d.items()} for j, d in alt.items()}
     imgs.keep([])
     out = {}
     for j in turns:
@@ -1303,6 +1313,23 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
         out[obj_ids[j]] = _TurnFit(gain, lab, dict(turns[j]).get(lab),
                                    float(np.mean(b[np.isfinite(b)])) if np.isfinite(b).any() else float("nan"), fit)
     return out
+
+
+def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: np.ndarray,
+              occ_depth_mm: np.ndarray | None, occ_color: np.ndarray | None) -> float:
+    """Interior NCC of gradient magnitudes between the image window ``crop`` (its gradient
+    magnitude ``mag_c``) and the window with the rendered objects pasted in: the object under
+    test (``depth_mm``, 0 = background, and template ``color``) in front of the other objects
+    (``occ_depth_mm``, ``occ_color``; None: none) where it is nearer; the NCC is taken over the
+    object's visible pixels."""
+    obj = depth_mm > 0
+    tmpl = crop.copy()
+    if occ_depth_mm is not None:
+        occ = occ_depth_mm > 0
+        obj &= ~occ | (depth_mm < occ_depth_mm)
+        np.copyto(tmpl, occ_color, where=(occ & ~obj)[..., None])
+    np.copyto(tmpl, color, where=obj[..., None])
+    return interior_ncc(mag_c, gradient_magnitude(tmpl, 1.0), obj)
 
 
 def _sphere_window(view, T: np.ndarray, centre_mm: np.ndarray, radius_mm: float, margin_px: int = 8,
