@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from ycbvss.refine.interior_edges import flat_at
 
@@ -94,3 +95,33 @@ def test_interior_points_drop_soft_texture_edges_only():
     on_ramp = lambda uv: int(np.sum((uv[:, 0] > 34.0) & (uv[:, 0] < 50.0)))
     assert near_step(uv_all) > 20 and on_ramp(uv_all) > 20
     assert near_step(uv_sharp) == near_step(uv_all) and on_ramp(uv_sharp) == 0
+
+
+@pytest.mark.parametrize("arc_deg, groups, gated", [(60.0, "wide", True), (20.0, "wide", False),
+                                                     (20.0, "medium", True)])
+def test_interior_turn_gate_at_the_finest_level_of_its_baseline_groups_only(monkeypatch, arc_deg, groups, gated):
+    """``interior_turn_finest_deg``: f_edge's candidates get the normal-turn gate at the finest
+    blur level of a keyframe bundle whose baseline group is listed, never at a coarser level
+    (the spy records the gate per level's blur; fast-rendered procedural scene: control flow only)."""
+    import ycbvss.refine.bundle as B
+    from ycbvss.procedural.render import render_frame_fast
+    from ycbvss.procedural.scene import make_scene
+
+    ps = make_scene(seed=3, n_frames=3, width=320, height=240, arc_deg=arc_deg)
+    imgs = {f.im_id: render_frame_fast(ps, f, noise_sigma=1.0)[0] for f in ps.frames}
+    gt = {(f.im_id, i.obj_id): i.T_m2c for f in ps.frames for i in f.instances}
+    seen: list[tuple[float, float]] = []
+    real = B.view_edge_candidates
+
+    def spy(vr, **kw):
+        seen.append((kw.get("blur_sigma_px") or 0.0, kw.get("interior_max_turn_deg", 0.0)))
+        return real(vr, **kw)
+
+    monkeypatch.setattr(B, "view_edge_candidates", spy)
+    opt = B.RefineOptions(interior_turn_finest_deg=20.0, interior_turn_groups=groups, max_iters=1,
+                          coarse_iters=1, extra_iters=0, turn_check=False)
+    res = B.refine_scene(ps.scene, ps.models, gt, opt, images=imgs)
+    finest = min(s for s, _ in seen)
+    assert {g for s, g in seen if s > finest} == {0.0}
+    assert {g for s, g in seen if s == finest} == ({20.0} if gated else {0.0})
+    assert res.stats["interior_turn_finest_deg"] == (20.0 if gated else 0.0)
