@@ -292,6 +292,9 @@ class _Stage:
         self._me: dict[int, np.ndarray] = {}
         self._flows: dict[tuple[int, int], tuple] = {}
         self.visible: set[tuple[int, int]] = set()
+        # renders of the coarse-move check at the current poses, taken by the next render() of the
+        # same view when its poses are still exactly these (view -> (poses, ViewRender))
+        self._pending: dict[int, tuple[dict, ViewRender]] = {}
         self.converged = False
         # every camera free while solving, the world moved back to the first camera after each solve
         # (RefineOptions.free_gauge; set by the keyframe bundle only)
@@ -334,13 +337,21 @@ class _Stage:
             self._norm[i] = normalize_for_flow(self.pb.views[i].image)
         return self._norm[i]
 
-    def render(self, i: int):
+    def render(self, i: int, keep: bool = False):
+        """View i's template render at the current poses (``keep``: also kept for the next call)."""
         pb = self.pb
         v = pb.views[i]
         t0 = time.perf_counter()
-        vr = render_view(self.renderer, self.models, pb.obj_ids, v.K, v.width, v.height,
-                         {j: pb.pose(i, j) for j in range(len(pb.obj_ids)) if pb.obj_known[j]},
-                         back=self.opt.edge_rim_depth)
+        poses = {j: pb.pose(i, j) for j in range(len(pb.obj_ids)) if pb.obj_known[j]}
+        hit = self._pending.get(i)
+        if hit is not None and hit[0].keys() == poses.keys() and all(np.array_equal(hit[0][j], T)
+                                                                      for j, T in poses.items()):
+            vr = self._pending.pop(i)[1]
+        else:
+            vr = render_view(self.renderer, self.models, pb.obj_ids, v.K, v.width, v.height, poses,
+                             back=self.opt.edge_rim_depth)
+        if keep:
+            self._pending[i] = (poses, vr)
         self._t("render_s", time.perf_counter() - t0)
         return vr
 
@@ -545,7 +556,7 @@ class _Stage:
         """The interior normal-turn gate (deg, 0 = off) of f_edge's candidates at the current level."""
         return self.opt.interior_max_turn_deg or (self.turn_finest if self.at_finest else 0.0)
 
-    def _object_edge_costs(self, fields: dict) -> np.ndarray:
+    def _object_edge_costs(self, fields: dict, keep: bool = False) -> np.ndarray:
         """Mean edge cost E (0 on an image edge, 1 far from any) of each object's template edge
         samples at the current poses in the given fields, over the stage's views; (n_objs,), NaN
         for an object without samples. Samples are drawn with a fixed seed (the stage's random
@@ -557,7 +568,7 @@ class _Stage:
         # view order (the same draws as one view after the other)
         jobs = []
         for i in self.term_views:
-            vr = self.render(i)
+            vr = self.render(i, keep=keep)
             jobs.append((i, vr, _view_pool().submit(
                 view_edge_candidates, vr, creases=opt.edge_creases, interior_max_turn_deg=self._turn_gate(),
                 fold_min_angle_deg=self.fold_angle, blur_sigma_px=self._blur_match_sigma(fields))))
@@ -592,8 +603,8 @@ class _Stage:
                      and np.linalg.norm(T_now[j][:3, 3] - T_b[j][:3, 3]) > self.opt.pose_tol_mm]
             if not moved:
                 continue
-            if best_c is None:
-                best_c = self._object_edge_costs(fields)
+            if best_c is None:      # the renders at the current poses serve the level's first iteration
+                best_c = self._object_edge_costs(fields, keep=True)
                 c_now = best_c.copy()
             pb.T_m = T_now.copy()
             pb.T_m[moved] = T_b[moved]
@@ -664,6 +675,7 @@ class _Stage:
             prev_move, calm = None, 0
             for outer in range(n_cap):
                 renders = {i: self.render(i) for i in self.term_views}
+                self._pending.clear()     # what the coarse-move check left and was not taken
                 n_built += 1
                 terms = self.build_terms(fields, renders, recompute_matches=(n_built - 1) % max(opt.match_every, 1) == 0)
                 terms = [t for t in terms if t.groups]

@@ -26,7 +26,7 @@ def _stage(T_m_now: list[np.ndarray], best_x_mm: list[float]) -> _Stage:
     st.opt = SimpleNamespace(pose_tol_mm=0.05)
     st.stats = {}
     best = np.asarray(best_x_mm, float)
-    st._object_edge_costs = lambda fields: 1.0 - np.exp(-np.abs(st.pb.T_m[:, 0, 3] - best) / 20.0)
+    st._object_edge_costs = lambda fields, keep=False: 1.0 - np.exp(-np.abs(st.pb.T_m[:, 0, 3] - best) / 20.0)
     return st
 
 
@@ -47,8 +47,30 @@ def test_an_object_goes_back_to_the_best_earlier_level_start():
 def test_an_object_that_did_not_move_or_has_no_cost_stays():
     starts = [np.stack([_T(0), _T(5)])]
     st = _stage([_T(0.01), _T(40)], best_x_mm=[3.0, 5.0])
-    st._object_edge_costs = (lambda f, base=st._object_edge_costs: np.where([True, False], base(f), np.nan))
+    st._object_edge_costs = (lambda f, keep=False, base=st._object_edge_costs: np.where([True, False], base(f), np.nan))
     st._verify_coarse_moves(starts, fields={}, levels="8->4")
     # object 0 moved less than the pose tolerance; object 1 has no edge cost (no samples): both stay
     assert np.allclose(st.pb.T_m[:, 0, 3], [0.01, 40.0])
     assert "coarse_moves_undone" not in st.stats
+
+
+def test_check_renders_serve_the_next_render_only_at_exactly_those_poses(monkeypatch):
+    """``_Stage.render(i, keep=True)`` (the check's renders at the current poses) is handed to the
+    next ``render(i)`` when the poses are still exactly the same, and re-rendered when an object
+    has moved (render_view stubbed: counts calls)."""
+    import ycbvss.refine.bundle as B
+
+    calls = []
+    monkeypatch.setattr(B, "render_view", lambda *a, **k: calls.append(a[6]) or object())
+    st = _Stage.__new__(_Stage)
+    st.pb = SimpleNamespace(obj_ids=[0, 1], obj_known=np.ones(2, bool), T_m=np.stack([_T(0.0), _T(5.0)]),
+                            views=[SimpleNamespace(K=np.eye(3), width=4, height=3)])
+    st.pb.pose = lambda i, j: st.pb.T_m[j].copy()
+    st.opt, st.stats, st.renderer, st.models, st._pending = SimpleNamespace(edge_rim_depth=False), {}, None, {}, {}
+    st._t = lambda k, v: None
+    kept = st.render(0, keep=True)
+    assert st.render(0) is kept and len(calls) == 1          # same poses: taken, not drawn again
+    kept2 = st.render(0, keep=True)
+    st.pb.T_m[1] = _T(5.001)
+    assert st.render(0) is not kept2 and len(calls) == 3      # an object moved by 1 um: drawn again
+    assert st._pending                                       # (left for the stage loop to clear)
