@@ -1428,8 +1428,8 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     if narrow and opt.interior_sharpness_bundles == "narrow":
         stage.min_sharpness = opt.interior_min_sharpness
     stats["interior_min_sharpness"] = stage.min_sharpness
-    turn_groups = {"wide": ("wide",), "medium": ("medium", "wide")}
-    if group_now in turn_groups.get(opt.interior_turn_groups, ()):
+    turn_groups = {"wide": ("wide",), "medium": ("medium", "wide")}     # checked in refine_scene
+    if group_now in turn_groups[opt.interior_turn_groups]:
         stage.turn_finest = opt.interior_turn_finest_deg
     stats["interior_turn_finest_deg"] = stage.turn_finest
     # "narrow": narrow-baseline bundles; "medium": those and the medium group (baseline < WIDE_BASELINE_DEG)
@@ -1482,6 +1482,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if opt.interior_sharpness_bundles not in ("narrow", "all"):
         raise YcbvssError(f"RefineOptions.interior_sharpness_bundles must be 'narrow' or 'all', got "
                           f"{opt.interior_sharpness_bundles!r}", where=f"scene {scene.scene_id}")
+    if opt.interior_turn_groups not in ("wide", "medium"):
+        raise YcbvssError(f"RefineOptions.interior_turn_groups must be 'wide' or 'medium', got "
+                          f"{opt.interior_turn_groups!r}", where=f"scene {scene.scene_id}")
     if opt.slide_restart not in (True, False, "coarse"):
         raise YcbvssError(f"RefineOptions.slide_restart must be True, False or 'coarse', got {opt.slide_restart!r}",
                           where=f"scene {scene.scene_id}")

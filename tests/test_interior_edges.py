@@ -125,3 +125,15 @@ def test_interior_turn_gate_at_the_finest_level_of_its_baseline_groups_only(monk
     assert {g for s, g in seen if s > finest} == {0.0}
     assert {g for s, g in seen if s == finest} == ({20.0} if gated else {0.0})
     assert res.stats["interior_turn_finest_deg"] == (20.0 if gated else 0.0)
+
+
+def test_interior_turn_groups_rejects_an_unknown_group():
+    """A misspelt ``interior_turn_groups`` is an error naming the option, not a silently unused gate."""
+    import ycbvss.refine.bundle as B
+    from ycbvss.errors import YcbvssError
+    from ycbvss.procedural.scene import make_scene
+
+    ps = make_scene(seed=3, n_frames=2, width=160, height=120, arc_deg=20)
+    gt = {(f.im_id, i.obj_id): i.T_m2c for f in ps.frames for i in f.instances}
+    with pytest.raises(YcbvssError, match="interior_turn_groups"):
+        B.refine_scene(ps.scene, ps.models, gt, B.RefineOptions(interior_turn_groups="wdie"))
