@@ -1213,7 +1213,7 @@ def _initialise_scene(views: list, models: dict, obj_ids: list, obs: dict, opt: 
                               opt.n_init_points, rng) for o in obj_ids]
     syms = [symmetry_transforms(models[o]) for o in obj_ids]
     t0 = time.perf_counter()
-    pb0, known = initialise(views, len(obj_ids), obs, Xs, syms, log=log)
+    pb0, known = initialise(views, len(obj_ids), obs, Xs, syms, log=log, px_scale=views[0].width / REF_WIDTH_PX)
     stats["init_s"] = time.perf_counter() - t0
     pb0.obj_ids = obj_ids
     pb0.obj_known = known

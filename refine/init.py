@@ -115,7 +115,7 @@ def align_symmetric(obs: dict, T_c: np.ndarray, T_m: np.ndarray, syms: list[list
 def initialise(views: list[View], n_objs: int, obs: dict[tuple[int, int], np.ndarray], X: list[np.ndarray],
                syms: list[list[np.ndarray]] | None = None, trunc_px: tuple[float, ...] = (40.0, 15.0),
                max_iters: int = 15, log: list | None = None, depth_weight: float = 0.05,
-               depth_cap_mm: float = 60.0) -> tuple[BundleProblem, np.ndarray]:
+               depth_cap_mm: float = 60.0, px_scale: float = 1.0) -> tuple[BundleProblem, np.ndarray]:
     """Scene-consistent cameras and objects from the observations ``obs[(view index, object index)]``.
 
     The reprojection cost (one stage per truncation in ``trunc_px``) hardly sees depth: a common
@@ -132,6 +132,12 @@ def initialise(views: list[View], n_objs: int, obs: dict[tuple[int, int], np.nda
     ``depth_cap_mm``; ``depth_weight=0`` leaves it out. With it the consensus's mean |depth error|
     fell in all 24 of those runs (medium-4, seed 0: 15.8 -> 7.5 mm) and its lateral error in 21.
 
+    ``trunc_px`` and ``depth_weight`` are set for 640-px-wide images (YCB-V's); ``px_scale`` (the
+    image width / 640) scales them so that the truncation covers the same angle and a mm of depth
+    weighs the same against the pixels, which shrink with the image: at 320 px the unscaled depth
+    weight counted 4 times as much against the reprojection and the scene-consistent poses of the
+    bench's 320-px scene came out 30 % farther from the truth (8.6 -> 11.3 mm mean, 16 keyframes).
+
     Returns (problem with T_c, T_m set; obj_known (m,) bool). ``X[j]``: sampled model points (mm)."""
     n = len(views)
     Ks = [v.K for v in views]
@@ -139,6 +145,8 @@ def initialise(views: list[View], n_objs: int, obs: dict[tuple[int, int], np.nda
     T_c, T_m, ck, okn = propagate(n, n_objs, obs, Ks, X)
     pb = BundleProblem(views, list(range(n_objs)), T_c, T_m,
                        cam_free=np.r_[False, ck[1:]], obj_free=okn)
+    trunc_px = tuple(float(t) * px_scale for t in trunc_px)
+    depth_weight = depth_weight * px_scale ** 2          # weight per mm^2 against 1 per px^2
     stages = [(tau, False) for tau in trunc_px] + ([(trunc_px[-1], True)] if depth_weight > 0 and trunc_px else [])
     for tau, with_depth in stages:
         cur = align_symmetric(obs, pb.T_c, pb.T_m, syms, X)

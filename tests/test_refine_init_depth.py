@@ -54,3 +54,26 @@ def test_consensus_depth_follows_the_observations(n_views, arc_deg):
             out.append(np.mean([pb.pose(*k)[2, 3] - gt[k][2, 3] for k in gt]) - dz_obs)
     assert max(abs(d) for d in dev_anchor) <= 1.5, dev_anchor
     assert np.mean(dev_reproj) >= 1.0, dev_reproj        # the bias the anchor removes is present here
+
+
+def test_consensus_is_the_same_at_half_the_image_width():
+    """The init's truncation (px) and depth weight (per mm^2 against 1 per px^2) are set at 640 px;
+    ``px_scale`` = width / 640 keeps the cost's shape when the same views are taken at 320 px (K
+    halved: every pixel residual halves). The consensus then matches the 640-px one to within
+    0.05 mm (measured 1e-12 mm: the same cost up to a factor); left at 640-px values the depth
+    anchor weighs 4 times as much and the truncation covers twice the angle at 320 px, and the
+    consensus lands elsewhere (measured: poses up to 12.1-12.3 mm apart here)."""
+    K_half = K.copy()
+    K_half[:2] *= 0.5
+    d_scaled, d_fixed = [], []
+    for seed in range(2):
+        Xs, gt = _scene(30, 20.0, np.random.default_rng(200 + seed))
+        obs = perturb_poses(gt, {k: K for k in gt}, dict(enumerate(Xs)), 22.1, 5.2, seed=seed).poses
+        full, _ = initialise([View(i, K, 640, 480) for i in range(30)], 5, dict(obs), Xs)
+        views_half = [View(i, K_half, 320, 240) for i in range(30)]
+        half, _ = initialise(views_half, 5, dict(obs), Xs, px_scale=0.5)
+        half_fixed, _ = initialise(views_half, 5, dict(obs), Xs)
+        for pb, out in ((half, d_scaled), (half_fixed, d_fixed)):
+            out.append(max(np.linalg.norm(pb.pose(*k)[:3, 3] - full.pose(*k)[:3, 3]) for k in gt))
+    assert max(d_scaled) <= 0.05, d_scaled
+    assert min(d_fixed) >= 1.0, d_fixed        # the mismatch px_scale removes is present here
