@@ -10,6 +10,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
 from functools import cached_property
+from collections.abc import Collection
 from typing import NamedTuple
 
 import numpy as np
@@ -168,6 +169,9 @@ class RefineOptions:
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
     folds_at_finest: bool = False     # fold edges also at the finest blur level (default: coarser levels only)
     verify_coarse: bool = True        # undo an object's coarse-level move the next finer level's edges disagree with
+    # with verify_coarse: an object a level hid in every view goes back to an earlier level's start
+    # that shows it and is held there (_Stage._verify_coarse_moves); False: a hidden object keeps its pose
+    hold_hidden: bool = True
     max_extrapolate: int = 3          # line search: up to N doublings of an accepted Newton step
     extra_iters: int = 12             # finest level: up to N more outer iterations while a pose still drifts
     min_baseline_deg: float = 10.0    # keyframes seen within a narrower angle (from the init) start at the 4 px level
@@ -315,6 +319,9 @@ class _Stage:
         self.shading = opt.template_shading is True
         # last outer iteration's change of every camera / object: (mm, deg) arrays
         self.numerical_failure = False    # a linear system stayed singular / non-finite at every damping
+        # objects a blur level hid in every view, put back by the coarse-move check and held there
+        # for the remaining levels (object indices; see _verify_coarse_moves)
+        self.held_hidden: set[int] = set()
         self.cam_move = (np.zeros(len(pb.T_c)), np.zeros(len(pb.T_c)))
         self.obj_move = (np.zeros(len(pb.T_m)), np.zeros(len(pb.T_m)))
 
@@ -593,7 +600,15 @@ class _Stage:
         the foam brick, started at the exact GT, was 38 mm off after the 8 px level and the 4 px
         field fitted that better than the GT -- the 2 px field no longer had the GT to compare
         with, and it ended 77 mm off. A coarse move that captured a real error fits the finer
-        field better and is kept. Cameras stay as they are."""
+        field better and is kept. Cameras stay as they are.
+
+        A level that left an object hidden in every view (no edge samples, so no cost) fits nothing:
+        an earlier pose that shows the object and has a cost wins over it, and the object is then
+        held there (not refined) for the remaining levels. On suite medium-5 the large marker lies in
+        the bowl, at most 18 % / 172 px visible (its cap): the first Newton step of every level,
+        from its initial pose 1.9 deg off, turned it 15-62 deg and out of sight, where no later
+        level could see it again (it ended 19 deg off, hidden in every view). Put back without the
+        hold, the next level threw it again."""
         pb = self.pb
         t0 = time.perf_counter()
         T_now = pb.T_m.copy()
@@ -610,12 +625,18 @@ class _Stage:
             pb.T_m[moved] = T_b[moved]
             c_b = self._object_edge_costs(fields)
             for j in moved:
-                if np.isfinite(c_b[j]) and np.isfinite(best_c[j]) and c_b[j] < best_c[j]:
+                if np.isfinite(c_b[j]) and ((not np.isfinite(best_c[j]) and self.opt.hold_hidden)
+                                            or c_b[j] < best_c[j]):
                     best_c[j], best_k[j] = c_b[j], k
         pb.T_m = T_now
         back = [j for j in range(len(pb.obj_ids)) if best_k[j] >= 0]
         for j in back:
             pb.T_m[j] = T_m_starts[best_k[j]][j]
+        hidden = [j for j in back if not np.isfinite(c_now[j])]
+        if hidden:
+            self.held_hidden.update(hidden)
+            pb.obj_free[hidden] = False
+            pb._index()
         if back:
             self.stats.setdefault("coarse_moves_undone", []).append(
                 {"levels": levels, "obj_ids": [int(pb.obj_ids[j]) for j in back],
@@ -1161,7 +1182,7 @@ def _shift_from_init_px(models: dict, views: list, vidx: dict, obj_ids: list, gi
 def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, quality: dict, obj_move: tuple,
               cam_move: tuple, visible: set, failed: set, turned_deg: np.ndarray,
               shift: tuple[np.ndarray, np.ndarray], view_contour_px: np.ndarray | None = None,
-              turn_gain: dict | None = None) -> tuple[dict, dict, dict]:
+              turn_gain: dict | None = None, held_hidden: Collection[int] = ()) -> tuple[dict, dict, dict]:
     """Status, confidence and reasons per pose (:func:`ycbvss.refine.confidence.classify`) from the
     calibrated statistical sigmas (without the systematic floor), the contour quality, the last outer iteration's moves (mm, deg) of the
     pose's object and camera, the object's turn (deg) and its centre's shift and initial scatter (px,
@@ -1169,7 +1190,8 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
     shift in ``quality``. ``view_contour_px`` (n,): the median contour offset of each view's objects;
     a pose's contour counts as the larger of its object's (median over views) and its view's; an
     object without a visible contour of its own stays unverified (its view's offset can only fail it).
-    ``turn_gain``: obj_id -> :class:`_TurnFit` (:func:`_turn_gains`), recorded in ``quality``."""
+    ``turn_gain``: obj_id -> :class:`_TurnFit` (:func:`_turn_gains`), recorded in ``quality``.
+    ``held_hidden``: obj_ids the keyframe bundle held because a level hid them in every view."""
     status, confidence, reasons = {}, {}, {}
     turn_gain = turn_gain or {}
     for (im, oid), P in poses.items():
@@ -1189,7 +1211,8 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
                       shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width),
                       turn_gain=tf.gain if tf else float("nan"), turn_fit=tf.fit if tf else float("nan"),
                       turn_label=tf.label if tf else "",
-                      worst_contour_px=quality[oid].get("contour_worst_px", float("nan")))
+                      worst_contour_px=quality[oid].get("contour_worst_px", float("nan")),
+                      held_hidden=oid in held_hidden)
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
@@ -1441,6 +1464,12 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     levels = tuple(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
     stats["edge_sigmas_px"] = list(levels)
     terms_kf = stage.run(levels)
+    if stage.held_hidden:
+        # held objects count in the covariance like the others (their pose is as uncertain as the
+        # image leaves it), and the status says they were held
+        pb.obj_free = np.zeros_like(known) if opt.fix_objects else known.copy()
+        pb._index()
+        stats["held_hidden"] = sorted(int(obj_ids[j]) for j in stage.held_hidden)
     if stage.free_gauge:
         # world = first camera (as after every solve), which is held fixed again for the covariance
         pb.T_c, pb.T_m = _in_first_camera(pb.state())
@@ -1655,7 +1684,7 @@ def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, imag
                                             (cam_move_mm, cam_move_deg), visible, failed,
                                             _turn_from_init_deg(syms, pb0.T_m, T_m),
                                             _shift_from_init_px(models, views, vidx, obj_ids, init, init_poses, poses),
-                                            view_px, turn_gain)
+                                            view_px, turn_gain, stats.get("held_hidden", ()))
     stats["total_s"] = time.perf_counter() - t_start
     stats.update({k: round(v, 4) for k, v in stats.items() if isinstance(v, float)})
     return RefineResult(poses=poses, T_w2c={views[i].im_id: T_c[i] for i in range(n) if not bad_cam[i]},

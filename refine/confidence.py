@@ -314,12 +314,14 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
              numerical_failure: bool = False, width_px: int = REF_WIDTH_PX, turned_deg: float = 0.0,
              shifted_px: float = 0.0, shift_limit_px: float = float("inf"), turn_gain: float = float("nan"),
              turn_fit: float = float("nan"), turn_label: str = "", own_contour: bool = True,
-             worst_contour_px: float = float("nan")) -> PoseStatus:
+             worst_contour_px: float = float("nan"), held_hidden: bool = False) -> PoseStatus:
     """Status and confidence of one pose (see the module docstring for the rules). ``contour_px``
     is measured in an image ``width_px`` wide; the thresholds ``OK_PX`` / ``FAIL_PX`` hold at
     ``REF_WIDTH_PX`` (YCB-V's 640 px) and scale with the width, so an offset means the same
     angular (and metric) misalignment at any resolution. ``worst_contour_px``: the object's
-    :func:`worst_views_px` over all its views (same thresholds: above ``OK_PX`` uncertain)."""
+    :func:`worst_views_px` over all its views (same thresholds: above ``OK_PX`` uncertain).
+    ``held_hidden``: the refinement hid the object in every view and it was held at an earlier pose
+    (``refine.bundle._Stage._verify_coarse_moves``): uncertain, confidence halved."""
     if numerical_failure:
         return PoseStatus("failed", 0.0, "numerical failure")
     reasons = []
@@ -366,5 +368,8 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         reasons.append("no uncertainty")
     elif s > SIGMA_OK_MM:
         reasons.append(f"sigma_add {s:.2f} mm")
+    if held_hidden:
+        reasons.append("held where it was visible: refining it hid it in every view")
+        conf *= 0.5
     status = "uncertain" if reasons else "converged"
     return PoseStatus(status, float(np.clip(conf, 0.0, 1.0)), "; ".join(reasons))

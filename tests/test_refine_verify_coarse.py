@@ -23,8 +23,11 @@ def _stage(T_m_now: list[np.ndarray], best_x_mm: list[float]) -> _Stage:
     st = _Stage.__new__(_Stage)
     st.pb = SimpleNamespace(obj_ids=list(range(len(T_m_now))), T_m=np.stack(T_m_now),
                             obj_known=np.ones(len(T_m_now), bool))
-    st.opt = SimpleNamespace(pose_tol_mm=0.05)
+    st.opt = SimpleNamespace(pose_tol_mm=0.05, hold_hidden=True)
     st.stats = {}
+    st.held_hidden = set()
+    st.pb.obj_free = np.ones(len(T_m_now), bool)
+    st.pb._index = lambda: None
     best = np.asarray(best_x_mm, float)
     st._object_edge_costs = lambda fields, keep=False: 1.0 - np.exp(-np.abs(st.pb.T_m[:, 0, 3] - best) / 20.0)
     return st
@@ -74,3 +77,40 @@ def test_check_renders_serve_the_next_render_only_at_exactly_those_poses(monkeyp
     st.pb.T_m[1] = _T(5.001)
     assert st.render(0) is not kept2 and len(calls) == 3      # an object moved by 1 um: drawn again
     assert st._pending                                       # (left for the stage loop to clear)
+
+
+def _hidden_beyond(st: _Stage, x_hidden_mm: float) -> None:
+    """Object 0 shows no edge sample (NaN cost) once its x is beyond ``x_hidden_mm``."""
+    base = st._object_edge_costs
+    st._object_edge_costs = lambda f, keep=False: np.where(np.arange(len(st.pb.T_m)) == 0,
+                                                           np.where(st.pb.T_m[:, 0, 3] > x_hidden_mm, np.nan, base(f)),
+                                                           base(f))
+
+
+def test_an_object_a_level_hid_goes_back_where_it_showed_and_is_held():
+    # object 0: started at 0 (visible, cost 0.39 against its best at 10), a level threw it to 60,
+    # where it is hidden in every view (no cost): back to 0 and no longer free; object 1 is untouched
+    starts = [np.stack([_T(0), _T(0)])]
+    st = _stage([_T(60), _T(0)], best_x_mm=[10.0, 0.0])
+    _hidden_beyond(st, 30.0)
+    st._verify_coarse_moves(starts, fields={}, levels="8->4")
+    assert abs(st.pb.T_m[0, 0, 3]) < 1e-9 and st.held_hidden == {0}
+    assert list(st.pb.obj_free) == [False, True]
+
+
+def test_without_hold_hidden_a_hidden_object_keeps_its_pose():
+    starts = [np.stack([_T(0), _T(0)])]
+    st = _stage([_T(60), _T(0)], best_x_mm=[10.0, 0.0])
+    st.opt.hold_hidden = False
+    _hidden_beyond(st, 30.0)
+    st._verify_coarse_moves(starts, fields={}, levels="8->4")
+    assert abs(st.pb.T_m[0, 0, 3] - 60.0) < 1e-9 and not st.held_hidden and all(st.pb.obj_free)
+
+
+def test_a_held_object_is_uncertain_with_its_reason():
+    from ycbvss.refine.confidence import classify
+
+    ok = classify(0.2, 0.5, 0.0, observed=True)
+    held = classify(0.2, 0.5, 0.0, observed=True, held_hidden=True)
+    assert ok.status == "converged" and held.status == "uncertain"
+    assert "hid it in every view" in held.reason and abs(held.confidence - 0.5 * ok.confidence) < 1e-12

@@ -106,7 +106,8 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
     init = initial_poses(run, gt, Ks, pts)
     kw = dict(VARIANTS[run.variant])
     kw.update(opts_kw or {})
-    ro = RefineOptions(keyframe_step=keyframe_step_for(len(sc.frames)), seed=run.seed, **kw)
+    step = kw.pop("keyframe_step", keyframe_step_for(len(sc.frames)))
+    ro = RefineOptions(keyframe_step=step, seed=run.seed, **kw)
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
