@@ -6,11 +6,11 @@ from __future__ import annotations
 import os
 import time
 import warnings
+from collections.abc import Collection
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
 from functools import cached_property
-from collections.abc import Collection
 from typing import NamedTuple
 
 import numpy as np
@@ -1463,11 +1463,12 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
     levels = tuple(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
     stats["edge_sigmas_px"] = list(levels)
+    obj_free = pb.obj_free.copy()
     terms_kf = stage.run(levels)
     if stage.held_hidden:
         # held objects count in the covariance like the others (their pose is as uncertain as the
         # image leaves it), and the status says they were held
-        pb.obj_free = np.zeros_like(known) if opt.fix_objects else known.copy()
+        pb.obj_free = obj_free
         pb._index()
         stats["held_hidden"] = sorted(int(obj_ids[j]) for j in stage.held_hidden)
     if stage.free_gauge:
