@@ -357,8 +357,13 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         reasons.append(f"the object turned {turn_label} fits the texture inside its silhouette better "
                        f"(NCC {turn_fit:.2f}, +{turn_gain:.2f})")
         conf *= 0.5
+    if held_hidden:
+        conf *= 0.5
     if np.isfinite(contour_px) and contour_px > fail_px:
-        return PoseStatus("failed", min(conf, 0.1), f"contour {contour_px:.2f} px off the image edges")
+        # the contour's offset first, then whatever else was found (a held object says so)
+        held = ["held where it was visible: refining it hid it in every view"] if held_hidden else []
+        return PoseStatus("failed", min(conf, 0.1),
+                          "; ".join([f"contour {contour_px:.2f} px off the image edges"] + reasons + held))
     if np.isfinite(contour_px) and contour_px > ok_px:
         reasons.append(f"contour {contour_px:.2f} px off the image edges")
     elif np.isfinite(worst_contour_px) and worst_contour_px > ok_px:
@@ -370,6 +375,5 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         reasons.append(f"sigma_add {s:.2f} mm")
     if held_hidden:
         reasons.append("held where it was visible: refining it hid it in every view")
-        conf *= 0.5
     status = "uncertain" if reasons else "converged"
     return PoseStatus(status, float(np.clip(conf, 0.0, 1.0)), "; ".join(reasons))

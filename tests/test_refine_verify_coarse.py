@@ -114,3 +114,14 @@ def test_a_held_object_is_uncertain_with_its_reason():
     held = classify(0.2, 0.5, 0.0, observed=True, held_hidden=True)
     assert ok.status == "converged" and held.status == "uncertain"
     assert "hid it in every view" in held.reason and abs(held.confidence - 0.5 * ok.confidence) < 1e-12
+
+
+def test_a_held_object_whose_contour_is_off_fails_and_still_says_it_was_held():
+    """A failed pose names its contour offset first and keeps the other findings (the hold)."""
+    from ycbvss.refine.confidence import FAIL_PX, classify
+
+    st = classify(FAIL_PX + 1.0, 0.5, 0.0, observed=True, held_hidden=True)
+    assert st.status == "failed" and st.confidence <= 0.1
+    assert st.reason.startswith(f"contour {FAIL_PX + 1.0:.2f} px off") and "hid it in every view" in st.reason
+    plain = classify(FAIL_PX + 1.0, 0.5, 0.0, observed=True)
+    assert plain.reason == f"contour {FAIL_PX + 1.0:.2f} px off the image edges"
