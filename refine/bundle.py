@@ -34,14 +34,14 @@ from .templates import (ViewRender, composite, ensure_meshes, get_renderer, mesh
                         select_edge_samples, view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_ncc, turn_transforms, turned_wrong
-from .confidence import (REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
+from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
                          sigma_floor, sigma_scale, worst_views_px)
 from .uncertainty import pose_sigmas
 
 
-# RefineOptions set on wide-baseline scenes by ``RefineOptions.wide_bias_removal``
-WIDE_BIAS_REMOVAL = {"template_shading": True, "edge_appearance": True, "flow_prior": "residual",
-                     "interior_turn_finest_deg": 20.0}
+# RefineOptions set on the scenes of the baseline groups in ``RefineOptions.bias_removal_groups``
+BIAS_REMOVAL = {"template_shading": True, "edge_appearance": True, "flow_prior": "residual",
+                "interior_turn_finest_deg": 20.0, "interior_turn_groups": "medium"}
 
 # blur levels (px at 640 px width) at which ``edge_appearance`` applies (the finest of (8, 4, 2, 1)): at coarser ones the background
 # beside a contour sample is no constant within the blur's reach
@@ -155,18 +155,21 @@ class RefineOptions:
     # (long-1 0.55 -> 0.89); medium 1, 2, 4, 5 ("medium") R 0.85 -> 0.87, tz 0.89 -> 0.83
     interior_turn_finest_deg: float = 0.0
     interior_turn_groups: str = "wide"
-    # on a wide-baseline keyframe bundle (YCB-V-length videos: baseline >= WIDE_BASELINE_DEG at the
-    # initial cameras) every appearance bias measured so far is removed together, for the whole
-    # scene (keyframes, non-keyframe cameras, statuses): the options of WIDE_BIAS_REMOVAL (lit
-    # templates for f_point and the contour prediction, f_t's residual flow, the interior
-    # normal-turn gate at the finest level). Each alone moves the free cameras' scene scale (the
-    # other biases no longer offset it: the gate alone brings long-3 1.25 mm closer); together, on
-    # the suite's long clips (bench/results/ycbv21/README.md, session 36): from the exact GT R 0.184
-    # -> 0.093 deg, signed dz -0.51 / +0.05 / +0.56 -> +0.59 / +0.24 / +0.07 mm; from the paper's
-    # init (seeds 0, 5) tx / ty / tz / R / PRJ 0.109 / 0.076 / 0.460 / 0.245 / 0.145 -> 0.08 / 0.05 /
-    # 0.41 / 0.17 / 0.10, objects meeting every long target 11 -> 16 of 21; wall time +50 %.
-    # False: the options as given
-    wide_bias_removal: bool = True
+    # scenes whose keyframes the initial cameras see over a baseline of one of these groups
+    # (comma-separated, of "narrow", "medium", "wide"; "": none) are refined with every appearance
+    # bias measured so far removed together, for the whole scene (keyframes, non-keyframe cameras,
+    # statuses): the options of BIAS_REMOVAL (lit templates for f_point and the contour
+    # prediction, f_t's residual flow, the interior normal-turn gate at the finest level). Each
+    # alone moves the free cameras' scene scale (the other biases no longer offset it: the gate
+    # alone brings long-3 1.25 mm closer); together, on the suite (bench/results/ycbv21/README.md,
+    # session 36), paper init, seeds 0 and 5, tx / ty / tz / R / PRJ: long 0.109 / 0.076 / 0.460 /
+    # 0.245 / 0.145 -> 0.08 / 0.05 / 0.41 / 0.17 / 0.10 (objects meeting every target 11 -> 16 of
+    # 21), from the exact GT R 0.184 -> 0.093 deg, signed dz -0.51 / +0.05 / +0.56 -> +0.59 /
+    # +0.24 / +0.07 mm; medium 0.16 / 0.16 / 0.95 / 0.36 / 0.22 -> 0.15 / 0.15 / 0.71 / 0.32 /
+    # 0.20 (5 -> 10 of 21; held-out scenes and seeds likewise). Wall time +50-70 %. Narrow bundles
+    # keep their own defaults (template_shading "narrow"; edge_appearance there cost the shared
+    # clips' mustard 3 mm of depth)
+    bias_removal_groups: str = "medium,wide"
     # at the finest blur level, interior texture (Canny) samples only where the template's edge is
     # sharp (refine.interior_edges.sharp_at: |grad| at sigma 1 over sigma 2.5 >= this; a step 2.0-2.3;
     # 0: off). A soft colour ramp's image edge moves with the scene's shading (bench_interior_offsets:
@@ -1442,18 +1445,28 @@ class _KeyframeSolution:
 
 def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known: np.ndarray,
                    stats: dict) -> RefineOptions:
-    """The options a scene is refined with: ``opt``, with :data:`WIDE_BIAS_REMOVAL` set when
-    ``opt.wide_bias_removal`` and the keyframes' initial cameras see the objects over a wide
-    baseline (the group :func:`_refine_keyframes` finds from the same poses)."""
-    stats["wide_bias_removal"] = False
-    if not opt.wide_bias_removal or not np.any(known):
+    """The options a scene is refined with: ``opt``, with :data:`BIAS_REMOVAL` set when the
+    keyframes' initial cameras see the objects over a baseline of a group in
+    ``opt.bias_removal_groups`` (the group :func:`_refine_keyframes` finds from the same poses)."""
+    stats["bias_removal"] = False
+    groups = _groups(opt.bias_removal_groups)
+    if not groups or not np.any(known):
         return opt
     base_deg = viewing_baseline_deg(pb0.T_c[kf], pb0.T_m[known])
     narrow = len(kf) == 1 or base_deg < opt.min_baseline_deg
-    if baseline_group(narrow, base_deg) != "wide":
+    if baseline_group(narrow, base_deg) not in groups:
         return opt
-    stats["wide_bias_removal"] = True
-    return dc_replace(opt, **WIDE_BIAS_REMOVAL)
+    stats["bias_removal"] = True
+    return dc_replace(opt, **BIAS_REMOVAL)
+
+
+def _groups(spec: str) -> tuple[str, ...]:
+    """Baseline groups of a comma-separated option value ("" -> none); unknown names raise ValueError."""
+    out = tuple(g.strip() for g in str(spec).split(",") if g.strip())
+    bad = [g for g in out if g not in BASELINE_GROUPS]
+    if bad:
+        raise ValueError(f"unknown baseline group(s) {bad}; expected some of {BASELINE_GROUPS}")
+    return out
 
 
 def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarray, pb0: BundleProblem,
@@ -1544,6 +1557,10 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if opt.interior_sharpness_bundles not in ("narrow", "all"):
         raise YcbvssError(f"RefineOptions.interior_sharpness_bundles must be 'narrow' or 'all', got "
                           f"{opt.interior_sharpness_bundles!r}", where=f"scene {scene.scene_id}")
+    try:
+        _groups(opt.bias_removal_groups)
+    except ValueError as e:
+        raise YcbvssError(f"RefineOptions.bias_removal_groups: {e}", where=f"scene {scene.scene_id}") from None
     if opt.interior_turn_groups not in ("wide", "medium"):
         raise YcbvssError(f"RefineOptions.interior_turn_groups must be 'wide' or 'medium', got "
                           f"{opt.interior_turn_groups!r}", where=f"scene {scene.scene_id}")

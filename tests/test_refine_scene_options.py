@@ -1,9 +1,11 @@
-"""RefineOptions.wide_bias_removal: which scenes get WIDE_BIAS_REMOVAL (refine.bundle._scene_options)."""
+"""RefineOptions.bias_removal_groups: which scenes get BIAS_REMOVAL (refine.bundle._scene_options)."""
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
-from ycbvss.refine.bundle import WIDE_BIAS_REMOVAL, RefineOptions, _scene_options
+from ycbvss.errors import YcbvssError
+from ycbvss.refine.bundle import BIAS_REMOVAL, RefineOptions, _scene_options, refine_scene
 
 
 def _orbit(angles_deg: list[float], dist_mm: float = 1000.0) -> np.ndarray:
@@ -27,18 +29,29 @@ def _pb(angles_deg):
     return SimpleNamespace(T_c=_orbit(angles_deg), T_m=T_m)
 
 
-def test_wide_scenes_get_every_bias_removal_and_narrow_ones_keep_their_options():
+WIDE, MEDIUM, NARROW = [0, 20, 40, 60], [0, 10, 20], [0, 3, 6]     # baselines 60, 20, 6 deg
+
+
+@pytest.mark.parametrize("groups, removed", [("medium,wide", {"wide", "medium"}), ("wide", {"wide"}),
+                                             ("", set()), ("narrow", {"narrow"})])
+def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
     known = np.ones(3, bool)
-    opt = RefineOptions(wide_bias_removal=True)
-    stats: dict = {}
-    wide = _scene_options(opt, _pb([0, 20, 40, 60]), [0, 1, 2, 3], known, stats)
-    assert stats["wide_bias_removal"] is True
-    for k, v in WIDE_BIAS_REMOVAL.items():
-        assert getattr(wide, k) == v and getattr(opt, k) != v      # the caller's options untouched
-    for angles in ([0, 3, 6], [0, 10, 20]):                          # narrow (< 10 deg) and medium (< 35)
-        stats = {}
-        assert _scene_options(opt, _pb(angles), [0, 1, 2], known, stats) is opt
-        assert stats["wide_bias_removal"] is False
-    stats = {}
-    off = RefineOptions(wide_bias_removal=False)
-    assert _scene_options(off, _pb([0, 20, 40, 60]), [0, 1, 2, 3], known, stats) is off
+    opt = RefineOptions(bias_removal_groups=groups)
+    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
+        stats: dict = {}
+        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+        assert stats["bias_removal"] is (name in removed)
+        if name in removed:
+            assert all(getattr(got, k) == v for k, v in BIAS_REMOVAL.items())
+            assert any(getattr(opt, k) != v for k, v in BIAS_REMOVAL.items())     # the caller's options untouched
+        else:
+            assert got is opt
+
+
+def test_the_default_removes_the_biases_on_medium_and_wide_scenes():
+    assert RefineOptions().bias_removal_groups == "medium,wide"
+
+
+def test_an_unknown_group_is_an_error_naming_the_option():
+    with pytest.raises(YcbvssError, match="bias_removal_groups"):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(bias_removal_groups="wdie"))
