@@ -119,7 +119,7 @@ def test_interior_turn_gate_at_the_finest_level_of_its_baseline_groups_only(monk
 
     monkeypatch.setattr(B, "view_edge_candidates", spy)
     opt = B.RefineOptions(interior_turn_finest_deg=20.0, interior_turn_groups=groups, max_iters=1,
-                          coarse_iters=1, extra_iters=0, turn_check=False)
+                          coarse_iters=1, extra_iters=0, turn_check=False, bias_removal_groups="")
     res = B.refine_scene(ps.scene, ps.models, gt, opt, images=imgs)
     finest = min(s for s, _ in seen)
     assert {g for s, g in seen if s > finest} == {0.0}
