@@ -44,8 +44,11 @@ def test_subpixel_recovery_from_5px_init_textured_and_textureless(scene4):
     assert set(res.poses) == set(gt)
     # a 30 deg arc: the medium sigma group, and no point-motion ridge by default (medium bundles)
     assert res.stats["baseline_group"] == "medium" and res.stats["object_ridge"] == "none"
-    # ... nor lit templates (template_shading="narrow", edge_appearance off)
-    assert res.stats["template_shading"] is False and res.stats["edge_appearance"] is False
+    # ... and the appearance biases removed (RefineOptions.bias_removal_groups: lit templates, lit
+    # contour prediction, f_t's residual flow, the finest level's interior turn gate)
+    assert res.stats["bias_removal"] is True
+    assert res.stats["template_shading"] is True and res.stats["edge_appearance"] is True
+    assert res.stats["interior_turn_finest_deg"] == 20.0
     textured = [o for o, m in ps.models.items() if not m.textureless]
     plain = [o for o, m in ps.models.items() if m.textureless]
     et, ep, ea = (_mean_err(res.poses, gt, pts, K, textured), _mean_err(res.poses, gt, pts, K, plain),
