@@ -114,7 +114,8 @@ class RefineOptions:
     edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
     edge_rim_depth: bool = False      # contour samples lifted at the rim's depth (chord midpoint, refine.edge.rim_depth), not the contour pixel's
     # ... moved by what the template's texture and the image's background predict, at the finest blur
-    # level. True: every bundle; "narrow": narrow-baseline bundles only. Off by default (see template_shading)
+    # level. True: every bundle; "narrow": narrow-baseline bundles only. Off by default (see template_shading;
+    # bias_removal_groups sets it on medium and wide scenes)
     edge_appearance: bool | str = False
     # f_point's templates (and, with edge_appearance, the contour's appearance prediction) lit by
     # the lighting fitted to each view's image (refine.shading: SH order 2, Lambertian). At the
@@ -129,8 +130,8 @@ class RefineOptions:
     # objects meeting every short target 10 -> 12 of 21, ADD > 10 mm 24 -> 8 of 672, but ADD < 2 mm
     # 0.78 -> 0.75; held-out scenes 3, 8, 9 seeds 5-6: 0.44/1.26/2.15/1.79/1.13 -> 0.40/0.89/2.04/1.34/0.83,
     # 6 -> 7 of 17, ADD < 2 mm 0.62 -> 0.58; YCBV-SS of the shared clips 0.06/0.06/0.52/0.15/0.16 ->
-    # 0.04/0.07/0.36/0.10/0.12, the mustard's R 0.67 -> 0.36 deg). Medium and long clips keep it off
-    # (held-out long-3 above). With edge_appearance="narrow" as well the suite's short clips gain
+    # 0.04/0.07/0.36/0.10/0.12, the mustard's R 0.67 -> 0.36 deg). Alone it stays off on medium and long
+    # clips (held-out long-3 above); bias_removal_groups turns it on there together with the other corrections. With edge_appearance="narrow" as well the suite's short clips gain
     # more (held-out 0.35/0.78/1.66/1.01/0.68, 11 of 17), but the shared clips' mustard ends 3.3 mm
     # too far in all five views (0.52 -> 3.3 mm; an affine colour map in place of the per-channel
     # gain: 3.8 mm; cause not found), so edge_appearance stays off
@@ -152,7 +153,8 @@ class RefineOptions:
     # 0.236 -> 0.218 (the banana 0.26 -> 0.08) but tz 0.52 -> 0.79 mm: the whole of long-1 comes
     # closer (mean signed dz -0.51 -> -0.79 mm, the free cameras' scale, bench/results/ycbv21
     # bias_sources.md); from the paper's init long 1-2 R 0.236 -> 0.202 deg, tz 0.38 -> 0.56 mm
-    # (long-1 0.55 -> 0.89); medium 1, 2, 4, 5 ("medium") R 0.85 -> 0.87, tz 0.89 -> 0.83
+    # (long-1 0.55 -> 0.89); medium 1, 2, 4, 5 ("medium") R 0.85 -> 0.87, tz 0.89 -> 0.83. Off here;
+    # bias_removal_groups sets 20 deg on medium and wide scenes with the other corrections
     interior_turn_finest_deg: float = 0.0
     interior_turn_groups: str = "wide"
     # scenes whose keyframes the initial cameras see over a baseline of one of these groups
@@ -198,7 +200,7 @@ class RefineOptions:
     n_matches: int = 1000
     match_erode_px: int = 6
     flow_margin_px: int = 24
-    flow_prior: bool | str = False    # f_t's flow from the motion the current estimate predicts (refine.flow_prior): "residual" warps by it, True starts Farneback from it
+    flow_prior: bool | str = False    # f_t's flow from the motion the current estimate predicts (refine.flow_prior): "residual" warps by it, True starts Farneback from it (bias_removal_groups: "residual" on medium and wide scenes)
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
