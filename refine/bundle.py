@@ -1454,12 +1454,18 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     groups = _groups(opt.bias_removal_groups)
     if not groups or not np.any(known):
         return opt
-    base_deg = viewing_baseline_deg(pb0.T_c[kf], pb0.T_m[known])
-    narrow = len(kf) == 1 or base_deg < opt.min_baseline_deg
-    if baseline_group(narrow, base_deg) not in groups:
+    if _keyframe_group(pb0.T_c[kf], pb0.T_m[known], opt.min_baseline_deg)[2] not in groups:
         return opt
     stats["bias_removal"] = True
     return dc_replace(opt, **BIAS_REMOVAL)
+
+
+def _keyframe_group(T_c_kf: np.ndarray, T_m_known: np.ndarray, min_baseline_deg: float) -> tuple[float, bool, str]:
+    """A keyframe bundle's viewing baseline (deg, rounded to 0.001), whether it is refined as one
+    viewpoint (one keyframe, or a baseline under ``min_baseline_deg``) and its baseline group."""
+    base_deg = round(viewing_baseline_deg(T_c_kf, T_m_known), 3)
+    narrow = len(T_c_kf) == 1 or base_deg < min_baseline_deg
+    return base_deg, narrow, baseline_group(narrow, base_deg)
 
 
 def _groups(spec: str) -> tuple[str, ...]:
@@ -1487,9 +1493,7 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     # away with no other viewpoint to pull it back -- start one level finer. Measured on the suite's
     # 7-degree clips: from the exact GT the 8 px level pulled a foam brick on a sugar box 50 mm off
     # (edges of its neighbours merged into its own); from 4 px it stayed within 5 mm.
-    stats["baseline_deg"] = round(viewing_baseline_deg(pb.T_c, pb.T_m[known]), 3)
-    narrow = len(kf) == 1 or stats["baseline_deg"] < opt.min_baseline_deg
-    group_now = baseline_group(narrow, stats["baseline_deg"])
+    stats["baseline_deg"], narrow, group_now = _keyframe_group(pb.T_c, pb.T_m[known], opt.min_baseline_deg)
     ridge = _ridge_levels(opt.object_ridge, group_now)
     if ridge == "every":     # the point-motion ridge at every level (True, or a narrow bundle)
         pb.obj_moments = stage.moments

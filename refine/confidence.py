@@ -310,6 +310,10 @@ class PoseStatus:
     reason: str = ""
 
 
+# the status reason of an object held at an earlier pose (refine.bundle._Stage._verify_coarse_moves)
+HELD_REASON = "held where it was visible: refining it hid it in every view"
+
+
 def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, observed: bool,
              numerical_failure: bool = False, width_px: int = REF_WIDTH_PX, turned_deg: float = 0.0,
              shifted_px: float = 0.0, shift_limit_px: float = float("inf"), turn_gain: float = float("nan"),
@@ -361,9 +365,8 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         conf *= 0.5
     if np.isfinite(contour_px) and contour_px > fail_px:
         # the contour's offset first, then whatever else was found (a held object says so)
-        held = ["held where it was visible: refining it hid it in every view"] if held_hidden else []
-        return PoseStatus("failed", min(conf, 0.1),
-                          "; ".join([f"contour {contour_px:.2f} px off the image edges"] + reasons + held))
+        return PoseStatus("failed", min(conf, 0.1), "; ".join(
+            [f"contour {contour_px:.2f} px off the image edges"] + reasons + ([HELD_REASON] if held_hidden else [])))
     if np.isfinite(contour_px) and contour_px > ok_px:
         reasons.append(f"contour {contour_px:.2f} px off the image edges")
     elif np.isfinite(worst_contour_px) and worst_contour_px > ok_px:
@@ -374,6 +377,6 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
     elif s > SIGMA_OK_MM:
         reasons.append(f"sigma_add {s:.2f} mm")
     if held_hidden:
-        reasons.append("held where it was visible: refining it hid it in every view")
+        reasons.append(HELD_REASON)
     status = "uncertain" if reasons else "converged"
     return PoseStatus(status, float(np.clip(conf, 0.0, 1.0)), "; ".join(reasons))
