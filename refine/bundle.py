@@ -29,9 +29,9 @@ from .matching import (FlowOptions, dense_flow_pair, flow_matches, min_eig_map, 
                        residual_flow_pair)
 from .problem import BundleProblem, View, model_moments
 from .solver import SolverOptions, covariance, run_lm
-from .shading import lit_template
-from .templates import (ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask, render_view,
-                        select_edge_samples, view_edge_candidates)
+from .shading import lit_template, view_lighting
+from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
+                        render_view, select_edge_samples, view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_ncc, turn_transforms, turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
@@ -201,6 +201,11 @@ class RefineOptions:
     match_erode_px: int = 6
     flow_margin_px: int = 24
     flow_prior: bool | str = False    # f_t's flow from the motion the current estimate predicts (refine.flow_prior): "residual" warps by it, True starts Farneback from it (bias_removal_groups: "residual" on medium and wide scenes)
+    # blur levels at which flow_prior applies: "finest" (the coarser levels use the plain flow, computed
+    # once: the prediction from an estimate centimetres off is no better than none, and the flow's
+    # smoothing bias it removes is what sets the final, finest-level answer) or "all" (predicted again
+    # at the start of every level, 4x the flows; the session-36 figures)
+    flow_prior_levels: str = "finest"
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
@@ -328,6 +333,10 @@ class _Stage:
                                and not pb.cam_free[0] and bool(np.any(pb.cam_free[1:])))
         self._point_term = None
         self._lit: dict[int, np.ndarray] = {}     # view index -> lit template colour, per build_terms call
+        # view index -> its lighting (3, 9; refine.shading), fitted at its first use in a blur level
+        # and kept for the level: the lighting is the image's, the poses move it only through which
+        # pixels the fit sees (refitted every outer iteration before 2026-11-27: 9 fits per view, not 1-4)
+        self._light: dict[int, np.ndarray] = {}
         self._T_m_starts: list[np.ndarray] = []
         self.fold_angle = opt.fold_min_angle_deg
         self.at_finest = True            # run() sets it per blur level (interior_min_sharpness applies at the finest)
@@ -405,12 +414,11 @@ class _Stage:
             terms.append(self._temporal_term(renders))
         return terms
 
-    def _lit_color(self, i: int, vr: ViewRender) -> np.ndarray:
-        """View i's template colour lit by the lighting fitted to its image (refine.shading), fitted
-        once per :meth:`build_terms` call."""
-        if i not in self._lit:
-            self._lit[i] = lit_template(vr.color, vr.normal, vr.instance, self.pb.views[i].image)
-        return self._lit[i]
+    def _flow_prior(self) -> bool | str:
+        """``flow_prior`` at this blur level (``flow_prior_levels``), False where it does not apply."""
+        if self.opt.flow_prior_levels == "all" or self.at_finest:
+            return self.opt.flow_prior
+        return False
 
     def _blur_match_sigma(self, fields: dict) -> float | None:
         """Blur (px) of the level's edge field the contour samples are matched to, None when off."""
@@ -435,16 +443,20 @@ class _Stage:
         lit = app and self.shading
         sharp = self.min_sharpness if self.at_finest else 0.0
         turn_gate = self._turn_gate()
-        jobs = [(i, vr, _view_pool().submit(view_edge_candidates, vr, creases=opt.edge_creases,
-                                            interior_max_turn_deg=turn_gate,
-                                            interior_min_sharpness=sharp,
-                                            fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur,
-                                            image=pb.views[i].image if app else None, normals=dil,
-                                            appearance_color=self._lit_color(i, vr) if lit and vr.normal is not None else None))
+        kw = dict(creases=opt.edge_creases, interior_max_turn_deg=turn_gate, interior_min_sharpness=sharp,
+                  fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur, normals=dil)
+        # the lit template (fitted lighting) is made on the pool too, beside the view's candidates
+        jobs = [(i, vr, _view_pool().submit(_lit_edge_candidates, vr, pb.views[i].image if app else None,
+                                            self._lit.get(i), lit and vr.normal is not None, self._light.get(i), kw))
                 for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
         for i, vr, job in jobs:
+            lit_color, light, cands = job.result()
+            if lit_color is not None:
+                self._lit[i] = lit_color
+            if light is not None:
+                self._light[i] = light
             nrm: dict | None = {} if dil else None
-            for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, self.rng,
+            for j, X in select_edge_samples(vr, pb.views[i].K, cands, opt.n_edge_points, self.rng,
                                             normals=nrm).items():
                 if (i, j) in vis and len(X):
                     groups.append(EdgeGroup(i, j, X, nrm.get(j) if nrm is not None else None))
@@ -465,16 +477,18 @@ class _Stage:
             objs = [j for j in vr.obj_index if (i, j) in vis]
             if not objs:
                 continue
-            y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
-            if self.shading and vr.normal is not None:
-                vr = dc_replace(vr, color=self._lit_color(i, vr))
-            raw = composite(vr, pb.views[i].image, (y0, y1, x0, x1))
+            box = _bbox(vr.instance > 0, opt.flow_margin_px)
+            y0, y1, x0, x1 = box
             masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
-            img_c = pb.views[i].image[y0:y1, x0:x1]
+            lit = self._lit.get(i, True) if self.shading and vr.normal is not None else None
             jobs.append((i, vr, objs, (x0, y0), _view_pool().submit(
-                _view_matches, raw, img_c, masks, opt.flow, self.me_image(i)[y0:y1, x0:x1])))
+                _view_matches_lit, vr, pb.views[i].image, box, lit, self._light.get(i), masks, opt.flow,
+                self.me_image(i)[y0:y1, x0:x1])))
         for i, vr, objs, (x0, y0), job in jobs:
-            matches = [(a + (x0, y0), b + (x0, y0)) for a, b in job.result()]
+            found, light = job.result()
+            if light is not None:
+                self._light[i] = light
+            matches = [(a + (x0, y0), b + (x0, y0)) for a, b in found]
             for j, (xs, xd) in zip(objs, matches):
                 if len(xs) == 0:
                     continue
@@ -503,7 +517,8 @@ class _Stage:
             vr = renders[k]
             key = (min(k, i), max(k, i))
             if key not in self._flows:        # one forward/backward flow pair serves both directions
-                if opt.flow_prior and i not in renders:
+                prior = self._flow_prior()
+                if prior and i not in renders:
                     renders[i] = self.render(i)
                 both = (vr.instance > 0) | ((renders[i].instance > 0) if i in renders else False)
                 box = _bbox(both, 2 * opt.flow_margin_px)
@@ -511,7 +526,7 @@ class _Stage:
                 a = normalize_for_flow(pb.views[key[0]].image[y0:y1, x0:x1])
                 b = normalize_for_flow(pb.views[key[1]].image[y0:y1, x0:x1])
                 init_ab = init_ba = None
-                if opt.flow_prior:         # start from the motion the current estimate predicts
+                if prior:                  # start from the motion the current estimate predicts
                     p, q = key
                     init_ab = predicted_flow(renders[p].depth_mm, pb.views[p].K, pb.views[q].K,
                                              relative_motion(pb.T_c[p], pb.T_c[q]), box)
@@ -519,7 +534,7 @@ class _Stage:
                                              relative_motion(pb.T_c[q], pb.T_c[p]), box)
                 if init_ab is None:
                     self._flows[key] = (dense_flow_pair(a, b, opt.flow), box)
-                elif opt.flow_prior == "residual":
+                elif prior == "residual":
                     self._flows[key] = (residual_flow_pair(a, b, opt.flow, init_ab, init_ba), box)
                 else:
                     self._flows[key] = (dense_flow_pair(a, b, opt.flow, init_ab, init_ba), box)
@@ -708,7 +723,8 @@ class _Stage:
             fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_interp,
                                   opt.edge_colour, opt.edge_linear) for i in self.term_views}
             self._t("edge_field_s", time.perf_counter() - t0)
-            if li > 0 and opt.flow_prior:
+            self._light.clear()
+            if li > 0 and opt.flow_prior and (opt.flow_prior_levels == "all" or self.at_finest):
                 self._flows.clear()    # f_t's flows follow the estimate: predicted again from this level's start
             if li > 0 and opt.verify_coarse:
                 self._verify_coarse_moves(self._T_m_starts, fields, f"{sigmas[li - 1]:g}->{sigma:g}")
@@ -774,6 +790,41 @@ def _view_pool() -> ThreadPoolExecutor:
     if _VIEW_POOL is None or _VIEW_POOL[0] != os.getpid():
         _VIEW_POOL = (os.getpid(), ThreadPoolExecutor(max_workers=2, thread_name_prefix="ycbvss-view"))
     return _VIEW_POOL[1]
+
+
+def _lit_colour(vr: ViewRender, image: np.ndarray, light: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """View render ``vr``'s template colour lit by ``light`` (3, 9), or by the lighting fitted to
+    ``image`` here when None (:mod:`ycbvss.refine.shading`): (lit colour, the lighting used)."""
+    if light is None:
+        light = view_lighting(vr.color, vr.normal, vr.instance, image)
+    return lit_template(vr.color, vr.normal, vr.instance, image, coeffs=light), light
+
+
+def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np.ndarray | None, lit: bool,
+                         light: np.ndarray | None, kw: dict) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
+    """One view's contour/interior candidates (:func:`view_edge_candidates` with the options ``kw``;
+    ``image``: the view's image for the contour's appearance prediction, None: none). ``lit``: that
+    prediction uses the lit template (``lit_color`` when already made, else made here with the
+    view's lighting ``light``, fitted here when None). Returns (the lit colour or None, the
+    lighting or None, the candidates)."""
+    if lit and lit_color is None:
+        lit_color, light = _lit_colour(vr, image, light)
+    return ((lit_color, light) if lit else (None, None)) + (
+        view_edge_candidates(vr, image=image, appearance_color=lit_color if lit else None, **kw),)
+
+
+def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int],
+                      lit: np.ndarray | bool | None, light: np.ndarray | None, masks: list[np.ndarray],
+                      flow: FlowOptions, dst_me: np.ndarray) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
+    """:func:`_view_matches` of the template composited over the view's ``image`` in ``box``
+    (y0, y1, x0, x1), and the lighting used. ``lit``: None, the unlit template; an array, that lit
+    colour; True, the template lit by ``light`` (fitted to the image here when None)."""
+    if lit is True:
+        lit, light = _lit_colour(vr, image, light)
+    if lit is not None:
+        vr = dc_replace(vr, color=lit)
+    y0, y1, x0, x1 = box
+    return _view_matches(composite(vr, image, box), image[y0:y1, x0:x1], masks, flow, dst_me), light
 
 
 def _view_matches(raw: np.ndarray, img: np.ndarray, masks: list[np.ndarray], flow: FlowOptions,
@@ -886,24 +937,43 @@ def _view_contour_offsets(views: list, models: dict, obj_ids: list, ok: np.ndarr
     profile's best shift away from the silhouette: at the exact GT, long-1's mug read 2.7-3.0 px in
     its clearest views unlit, 0.17-0.42 px lit (medium-7's potted meat can 1.0-1.35 -> 0.22-0.25)."""
     renderer = renderer or get_renderer()
-    out: dict[int, dict[int, float]] = {}
+    out: dict[int, dict[int, float]] = {i: {} for i in range(len(views))}
+    pending: list = []          # renders on this thread (the GL context's), the rest on the view pool
+
+    def collect(n_left: int) -> None:
+        while len(pending) > n_left:
+            i, job = pending.pop(0)
+            for o, (r, n_px) in job.result().items():
+                out[i][o] = r
+                if lengths is not None:
+                    lengths.setdefault(i, {})[o] = n_px
+
     for i, v in enumerate(views):
         P = {j: poses[(v.im_id, o)] for j, o in enumerate(obj_ids) if ok[j] and (v.im_id, o) in poses}
-        out[i] = {}
         if not P:
             continue
         vr = render_view(renderer, models, obj_ids, v.K, v.width, v.height, P)
-        mag = image_mags[i] if image_mags is not None else gradient_magnitude(v.image, 1.0)
-        if lit and vr.normal is not None:
-            vr = dc_replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, v.image, max_px=8000))
-        mag_t = gradient_magnitude(composite(vr, v.image), 1.0)
-        for j in vr.obj_index:
-            r, n_px = contour_offset_px(mag, mag_t, vr.instance, vr.depth_mm, vr.label_of(j), return_length=True)
-            if np.isfinite(r):
-                out[i][obj_ids[j]] = float(r)
-                if lengths is not None:
-                    lengths.setdefault(i, {})[obj_ids[j]] = int(n_px)
+        pending.append((i, _view_pool().submit(_one_view_contour_offsets, vr, v.image, obj_ids,
+                                               image_mags[i] if image_mags is not None else None, lit)))
+        collect(4)              # at most 4 views' renders in flight (bounded memory)
+    collect(0)
     return out
+
+
+def _one_view_contour_offsets(vr: ViewRender, image: np.ndarray, obj_ids: list, mag: np.ndarray | None,
+                              lit: bool) -> dict[int, tuple[float, int]]:
+    """One view of :func:`_view_contour_offsets`: obj_id -> (offset px, visible contour pixels) of
+    the objects with a visible contour in the template render ``vr``."""
+    mag = gradient_magnitude(image, 1.0) if mag is None else mag
+    if lit and vr.normal is not None:
+        vr = dc_replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, image, max_px=8000))
+    mag_t = gradient_magnitude(composite(vr, image), 1.0)
+    res = {}
+    for j in vr.obj_index:
+        r, n_px = contour_offset_px(mag, mag_t, vr.instance, vr.depth_mm, vr.label_of(j), return_length=True)
+        if np.isfinite(r):
+            res[obj_ids[j]] = (float(r), int(n_px))
+    return res
 
 
 def _object_quality(per_view: dict[int, dict[int, float]], models: dict, obj_ids: list) -> dict:
@@ -1570,6 +1640,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if opt.interior_turn_groups not in ("wide", "medium"):
         raise YcbvssError(f"RefineOptions.interior_turn_groups must be 'wide' or 'medium', got "
                           f"{opt.interior_turn_groups!r}", where=f"scene {scene.scene_id}")
+    if opt.flow_prior_levels not in ("finest", "all"):
+        raise YcbvssError(f"RefineOptions.flow_prior_levels must be 'finest' or 'all', got {opt.flow_prior_levels!r}",
+                          where=f"scene {scene.scene_id}")
     if opt.slide_restart not in (True, False, "coarse"):
         raise YcbvssError(f"RefineOptions.slide_restart must be True, False or 'coarse', got {opt.slide_restart!r}",
                           where=f"scene {scene.scene_id}")

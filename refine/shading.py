@@ -26,6 +26,11 @@ def sh9_basis(normals: np.ndarray) -> np.ndarray:
     return np.stack([np.ones_like(x), x, y, z, x * y, x * z, y * z, x * x - y * y, 3 * z * z - 1], axis=1)
 
 
+def _u8(x: np.ndarray) -> np.ndarray:
+    """8-bit values as :func:`srgb_to_linear` reads them (rounded and clipped when not uint8)."""
+    return x if x.dtype == np.uint8 else np.clip(np.rint(x), 0, 255).astype(np.uint8)
+
+
 def _linear_to_srgb_u8(lin: np.ndarray) -> np.ndarray:
     """Linear light in [0, 255] -> 8-bit sRGB."""
     return np.clip(np.rint(linear_to_srgb(lin)), 0, 255).astype(np.uint8)
@@ -42,25 +47,28 @@ def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask
     ``trim`` x the median absolute residual (cast shadows, highlights, occluders the template lacks).
     At most ``max_px`` pixels (a fixed random subset). None when fewer than 50 usable pixels."""
     m = np.asarray(mask, bool)
-    a = srgb_to_linear(np.asarray(albedo)[m]).astype(np.float64)      # decode only the fitted pixels
-    i = srgb_to_linear(np.asarray(image)[m]).astype(np.float64)
-    n = np.asarray(normals, np.float64)[m]
-    nn = np.linalg.norm(n, axis=1)
-    ok = (nn > 0.5) & (a.min(axis=1) > 2.0) & (i.max(axis=1) < 254.0)    # no albedo: no shading; saturated: clipped
-    a, i, n = a[ok], i[ok], n[ok] / nn[ok, None]
-    if len(a) < 50:
+    alb, img = _u8(np.asarray(albedo)[m]), _u8(np.asarray(image)[m])      # (N, 3) uint8 of the masked pixels
+    nrm = np.asarray(normals)[m].astype(np.float64)
+    nn = np.linalg.norm(nrm, axis=1)
+    lut = srgb_to_linear(np.arange(256, dtype=np.uint8))               # increasing: min/max commute with it
+    # no albedo: no shading; saturated: clipped
+    ok = np.flatnonzero((nn > 0.5) & (lut[alb.min(axis=1)] > 2.0) & (lut[img.max(axis=1)] < 254.0))
+    if len(ok) < 50:
         return None
-    if len(a) > max_px:
-        sel = np.random.default_rng(seed).choice(len(a), max_px, replace=False)
-        a, i, n = a[sel], i[sel], n[sel]
+    if len(ok) > max_px:
+        ok = ok[np.random.default_rng(seed).choice(len(ok), max_px, replace=False)]
+    a = srgb_to_linear(alb[ok]).astype(np.float64)                      # decode only the fitted pixels
+    i = srgb_to_linear(img[ok]).astype(np.float64)
+    n = nrm[ok] / nn[ok, None]
     B = sh9_basis(n)
     C = np.zeros((3, N_SH))
     reg = np.full(N_SH, ridge)
     reg[0] = 0.0
     for c in range(3):
         keep = np.ones(len(a), bool)
+        aB = a[:, c, None] * B
         for _ in range(3):
-            X = a[keep, c, None] * B[keep]
+            X = aB[keep]
             A = X.T @ X
             A[np.diag_indices(N_SH)] += reg * np.trace(A) / N_SH
             C[c] = np.linalg.solve(A, X.T @ i[keep, c])
@@ -82,15 +90,22 @@ def shade(albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray, coeffs: np.
     return out
 
 
-def lit_template(color: np.ndarray, normals: np.ndarray, instance: np.ndarray, image: np.ndarray,
-                 erode_px: int = 3, max_px: int = 40000) -> np.ndarray:
-    """One view's template ``color`` (H, W, 3 uint8, unlit) shaded by the lighting fitted to
-    ``image`` over the rendered objects' pixels at least ``erode_px`` px inside their silhouettes
-    (``instance`` > 0), at most ``max_px`` of them (:func:`fit_shading`). The unlit template when
-    the fit has too few pixels."""
+def view_lighting(color: np.ndarray, normals: np.ndarray, instance: np.ndarray, image: np.ndarray,
+                  erode_px: int = 3, max_px: int = 40000) -> np.ndarray | None:
+    """One view's lighting (3, 9) fitted to ``image`` over the template's (``color`` H, W, 3 uint8,
+    unlit; ``normals``; ``instance`` > 0 where an object is drawn) pixels at least ``erode_px`` px
+    inside the silhouettes, at most ``max_px`` of them (:func:`fit_shading`); None when too few."""
     import cv2
 
     obj = np.asarray(instance) > 0
     inner = cv2.erode(obj.astype(np.uint8), np.ones((2 * erode_px + 1,) * 2, np.uint8)).astype(bool) if erode_px > 0 else obj
-    C = fit_shading(image, color, normals, inner, max_px=max_px)
-    return np.asarray(color) if C is None else shade(color, normals, obj, C)
+    return fit_shading(image, color, normals, inner, max_px=max_px)
+
+
+def lit_template(color: np.ndarray, normals: np.ndarray, instance: np.ndarray, image: np.ndarray,
+                 erode_px: int = 3, max_px: int = 40000, coeffs: np.ndarray | None = None) -> np.ndarray:
+    """One view's template ``color`` (H, W, 3 uint8, unlit) shaded by the lighting fitted to
+    ``image`` (:func:`view_lighting`), or by ``coeffs`` (3, 9) when given (a lighting fitted
+    before: it is the view's, not the poses'). The unlit template when the fit has too few pixels."""
+    C = view_lighting(color, normals, instance, image, erode_px, max_px) if coeffs is None else coeffs
+    return np.asarray(color) if C is None else shade(color, normals, np.asarray(instance) > 0, C)

@@ -95,3 +95,49 @@ def test_residual_flow_keeps_a_small_near_object_apart_from_its_background():
     core_dst = (slice(y0 + 3, y0 + S - 3), slice(x0 + 33, x0 + S + 27))
     # backward: the strip the square uncovers lies inside the window (measured -30.39 px)
     assert abs(float(np.median(back[core_dst][..., 0])) + near_px) < 0.5
+
+
+def _level_trace(monkeypatch, flow_prior_levels: str) -> list[str]:
+    """Refine a small procedural bundle (fast-renderer images: a unit test of the level logic,
+    no evidence of accuracy) and trace, in call order, each blur level's start ("E") and each
+    f_t flow pair computed with the predicted motion ("R") or without it ("D")."""
+    import ycbvss.refine.bundle as B
+    from ycbvss.procedural.render import render_frame_fast
+    from ycbvss.procedural.scene import make_scene
+
+    trace: list[str] = []
+
+    def wrap(fn, tag):
+        def inner(*a, **k):
+            trace.append(tag)
+            return fn(*a, **k)
+        return inner
+
+    monkeypatch.setattr(B, "edge_field", wrap(B.edge_field, "E"))
+    monkeypatch.setattr(B, "residual_flow_pair", wrap(B.residual_flow_pair, "R"))
+    monkeypatch.setattr(B, "dense_flow_pair", wrap(B.dense_flow_pair, "D"))
+    ps = make_scene(seed=2, n_frames=3, width=320, height=240, arc_deg=24)
+    imgs = {f.im_id: render_frame_fast(ps, f, noise_sigma=1.0)[0] for f in ps.frames}
+    gt = {(f.im_id, i.obj_id): i.T_m2c for f in ps.frames for i in f.instances}
+    opt = B.RefineOptions(flow_prior="residual", flow_prior_levels=flow_prior_levels, bias_removal_groups="",
+                          keyframe_step=1, max_iters=2, coarse_iters=1, extra_iters=0, verify_coarse=False,
+                          compute_uncertainty=False, turn_check=False)
+    B.refine_scene(ps.scene, ps.models, gt, opt, images=imgs)
+    # one "E" per view at each level start: keep the first of each run
+    return [t for n, t in enumerate(trace) if t != "E" or n == 0 or trace[n - 1] != "E"]
+
+
+def test_the_flow_prior_applies_at_the_finest_blur_level_only(monkeypatch):
+    trace = _level_trace(monkeypatch, "finest")
+    starts = [n for n, t in enumerate(trace) if t == "E"]
+    assert len(starts) >= 2, trace                           # several blur levels
+    before, finest = trace[: starts[-1]], trace[starts[-1]:]
+    assert "R" not in before and "D" in before, trace        # coarser levels: the plain flow ...
+    assert before.count("D") == finest.count("R") > 0, trace  # ... computed once, then predicted once at the finest
+
+
+def test_the_flow_prior_on_every_level_is_predicted_again_at_each(monkeypatch):
+    trace = _level_trace(monkeypatch, "all")
+    starts = [n for n, t in enumerate(trace) if t == "E"] + [len(trace)]
+    per_level = [trace[a:b].count("R") for a, b in zip(starts[:-1], starts[1:])]
+    assert "D" not in trace and len(per_level) >= 2 and min(per_level) > 0, trace

@@ -55,3 +55,8 @@ def test_the_default_removes_the_biases_on_medium_and_wide_scenes():
 def test_an_unknown_group_is_an_error_naming_the_option():
     with pytest.raises(YcbvssError, match="bias_removal_groups"):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(bias_removal_groups="wdie"))
+
+
+def test_an_unknown_flow_prior_levels_is_an_error_naming_the_option():
+    with pytest.raises(YcbvssError, match="flow_prior_levels"):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(flow_prior_levels="fine"))

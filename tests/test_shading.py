@@ -96,3 +96,22 @@ def test_lit_template_removes_flow_bias():
             rms[name].append(float(np.sqrt(np.mean(np.sum((b - a) ** 2, axis=1)))))
     assert max(rms["lit"]) < 0.05, rms
     assert max(rms["lit"]) < 0.5 * min(rms["unlit"]), rms
+
+
+def test_a_lighting_fitted_once_shades_like_the_fit_it_came_from():
+    """The refiner fits a view's lighting once per blur level (refine.bundle) and shades later
+    templates with it: lit_template(coeffs=view_lighting(...)) must be the fit-and-shade result."""
+    from ycbvss.refine.shading import view_lighting
+
+    rng = np.random.default_rng(5)
+    n, inside = _sphere()
+    albedo = rng.integers(40, 230, size=n.shape[:2] + (3,)).astype(np.uint8)
+    img = _lit(albedo, n, inside, 0.7 * np.array([0.0, -0.6, -0.8]), 0.3)
+    inst = inside.astype(np.int32)
+    C = view_lighting(albedo, n, inst, img)
+    assert C is not None and C.shape == (3, 9)
+    assert np.array_equal(lit_template(albedo, n, inst, img, coeffs=C), lit_template(albedo, n, inst, img))
+    # and it is a lighting, not the unlit template: the shaded template is much closer to the image
+    err = np.abs(srgb_to_linear(lit_template(albedo, n, inst, img, coeffs=C))[inside] - srgb_to_linear(img)[inside]).mean()
+    base = np.abs(srgb_to_linear(albedo)[inside] - srgb_to_linear(img)[inside]).mean()
+    assert err < 0.15 * base, (err, base)
