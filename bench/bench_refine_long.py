@@ -8,6 +8,8 @@ frame*object, and the peak RSS; run it at two lengths to see that memory does no
 video.
 
     python bench/bench_refine_long.py --frames 2000 --models /path/to/bop/ycbv/models
+    python bench/bench_refine_long.py --frames 2000 --models ... --objects 1,5,8,10,14,19 --keyframes-only \
+        --opt flow_prior_levels=all        # the keyframe bundle alone (~4 min), with option overrides
 """
 from __future__ import annotations
 
@@ -40,6 +42,55 @@ class LazyImages:
         return self.render(self.scene, f, self.gl, noise_sigma=1.5)[0]
 
 
+def _override(text: str) -> tuple[str, object]:
+    """``NAME=VALUE`` -> (name, value): the value read as a Python literal, else kept as a string."""
+    import ast
+
+    name, _, value = text.partition("=")
+    try:
+        return name, ast.literal_eval(value)
+    except (ValueError, SyntaxError):
+        return name, value
+
+
+def _keyframes_only(ps, gt: dict, init: dict, opt, imgs, oids: list[int]) -> int:
+    """Refine up to the keyframe bundle and print each object's error in the keyframes (the
+    bundle's world poses, which the non-keyframe stage keeps): a diagnostic that wraps the private
+    ``ycbvss.refine.bundle._refine_keyframes`` and stops the run after it."""
+    import ycbvss.refine.bundle as bundle
+    from ycbvss.refine import refine_scene
+
+    class _Done(Exception):
+        pass
+
+    inner = bundle._refine_keyframes
+
+    def report(views, kf, obj_ids, T_c_kf, T_m, tag):
+        for j, o in enumerate(obj_ids):
+            e = np.array([(T_c_kf[a] @ T_m[j])[:3, 3] - gt[(views[i].im_id, o)][:3, 3]
+                          for a, i in enumerate(kf) if (views[i].im_id, o) in gt])
+            print(f"  {tag} obj {o}: |t err| median {np.median(np.linalg.norm(e, axis=1)):.2f} mm, "
+                  f"mean signed dz {e[:, 2].mean():+.2f} mm")
+
+    def wrapped(views, models, obj_ids, known, pb0, kf, opt_, log, stats, imgs_):
+        report(views, kf, obj_ids, pb0.T_c[kf], pb0.T_m, "initial")
+        t0 = time.perf_counter()
+        ks = inner(views, models, obj_ids, known, pb0, kf, opt_, log, stats, imgs_)
+        print(f"keyframe bundle: {len(kf)} keyframes, {time.perf_counter() - t0:.0f} s, "
+              f"bias removal {stats.get('bias_removal')}")
+        report(views, kf, obj_ids, ks.T_c[kf], ks.T_m, "refined")
+        raise _Done
+
+    bundle._refine_keyframes = wrapped
+    try:
+        refine_scene(ps.scene, ps.models, init, opt, images=imgs)
+    except _Done:
+        pass
+    finally:
+        bundle._refine_keyframes = inner
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=2000)
@@ -47,6 +98,10 @@ def main(argv=None) -> int:
     ap.add_argument("--models", type=Path, required=True, help="BOP models folder of YCB-V (e.g. from ycbvss convert)")
     ap.add_argument("--keyframes", type=int, default=16, help="number of jointly refined keyframes")
     ap.add_argument("--width", type=int, default=640)
+    ap.add_argument("--keyframes-only", action="store_true",
+                    help="stop after the keyframe bundle (initialised from every frame, as in the full run) and "
+                         "print its per-object error in the keyframes: the world poses every frame inherits, in minutes")
+    ap.add_argument("--opt", nargs="*", default=[], help="RefineOptions overrides NAME=VALUE (Python literals)")
     args = ap.parse_args(argv)
 
     from ycbvss.io.bop import load_models
@@ -67,9 +122,11 @@ def main(argv=None) -> int:
     t_setup = time.perf_counter() - t0
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     imgs = LazyImages(ps)
+    opt = RefineOptions(keyframe_step=max(1, args.frames // args.keyframes), **dict(_override(a) for a in args.opt))
+    if args.keyframes_only:
+        return _keyframes_only(ps, gt, init, opt, imgs, oids)
     t0 = time.perf_counter()
-    res = refine_scene(ps.scene, ps.models, init, RefineOptions(keyframe_step=max(1, args.frames // args.keyframes)),
-                       images=imgs)
+    res = refine_scene(ps.scene, ps.models, init, opt, images=imgs)
     wall = time.perf_counter() - t0
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     err = np.array([np.linalg.norm(res.poses[k][:3, 3] - gt[k][:3, 3]) for k in gt])

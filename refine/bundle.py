@@ -202,9 +202,12 @@ class RefineOptions:
     flow_margin_px: int = 24
     flow_prior: bool | str = False    # f_t's flow from the motion the current estimate predicts (refine.flow_prior): "residual" warps by it, True starts Farneback from it (bias_removal_groups: "residual" on medium and wide scenes)
     # blur levels at which flow_prior applies: "finest" (the coarser levels use the plain flow, computed
-    # once: the prediction from an estimate centimetres off is no better than none, and the flow's
-    # smoothing bias it removes is what sets the final, finest-level answer) or "all" (predicted again
-    # at the start of every level, 4x the flows; the session-36 figures)
+    # once; the flow's smoothing bias the prior removes is what sets the final, finest-level answer) or
+    # "all" (predicted again at the start of every level: 4x the flows, the session-36 figures). At the
+    # coarse levels the estimate is still centimetres off and so is its prediction: on the keyframe
+    # bundle of bench/bench_refine_long.py's 2000-frame scene (16 keyframes, 75 deg) "all" left the
+    # banana 9.3 mm off (median over the keyframes; 9.4 with the lighting refitted every iteration),
+    # "finest" 0.36 mm, the other five objects 0.08-0.18 mm either way
     flow_prior_levels: str = "finest"
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
