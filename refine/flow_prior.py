@@ -20,15 +20,19 @@ correspondences. ``RefineOptions.flow_prior``:
 - ``True``: Farneback starts from :func:`predicted_flow` (``cv2.OPTFLOW_USE_INITIAL_FLOW``): 1 % of
   the matches > 2 px wrong, but the compression stays and the shift grows (-1.53 mm);
 - ``"residual"``: the second image is warped by the prediction and Farneback finds only the residual
-  (:func:`ycbvss.refine.matching.residual_flow_pair`), re-predicted at every blur level. With the
+  (:func:`ycbvss.refine.matching.residual_flow_pair`), predicted at the finest blur level only
+  (``RefineOptions.flow_prior_levels``; at the coarser levels the estimate, and so its prediction,
+  is still centimetres off). With the
   predicting camera 0.3 deg / 3 mm off, the 25-frame pairs' matches are 0.11 px off (median; 0.37
   started from the prediction, 0.51 from zero) with no compression (slope 0.000 px/px against
   -0.014 and, with its outliers, -1.4), the 8-frame pairs' 0.08 px (0.15). From the exact GT on long-1's keyframes:
   +1.06 mm, f_t no longer moves the scene; what is left is the edges' recession (see the README).
 
-Off by default: removing f_t's pull uncovers the edges' opposite bias, so on long-1 alone the
-depth error grows (from the exact GT |dz| 0.70 -> 1.06 mm; from the paper's initial error on the
+Alone, it makes things worse: removing f_t's pull uncovers the edges' opposite bias, so on long-1
+the depth error grows (from the exact GT |dz| 0.70 -> 1.06 mm; from the paper's initial error on the
 keyframes tz 1.17 -> 1.21 mm). With ``RefineOptions.edge_appearance`` as well: 0.65 and 0.72 mm.
+Since session 36 it is on for medium and wide scenes together with the other appearance
+corrections (``RefineOptions.bias_removal_groups``).
 """
 from __future__ import annotations
 
