@@ -42,17 +42,6 @@ class LazyImages:
         return self.render(self.scene, f, self.gl, noise_sigma=1.5)[0]
 
 
-def _override(text: str) -> tuple[str, object]:
-    """``NAME=VALUE`` -> (name, value): the value read as a Python literal, else kept as a string."""
-    import ast
-
-    name, _, value = text.partition("=")
-    try:
-        return name, ast.literal_eval(value)
-    except (ValueError, SyntaxError):
-        return name, value
-
-
 def _keyframes_only(ps, gt: dict, init: dict, opt, imgs, oids: list[int]) -> int:
     """Refine up to the keyframe bundle and print each object's error in the keyframes (the
     bundle's world poses, which the non-keyframe stage keeps): a diagnostic that wraps the private
@@ -104,6 +93,7 @@ def main(argv=None) -> int:
     ap.add_argument("--opt", nargs="*", default=[], help="RefineOptions overrides NAME=VALUE (Python literals)")
     args = ap.parse_args(argv)
 
+    from bench_refine import _option_override    # NAME=VALUE -> a RefineOptions override (checked)
     from ycbvss.io.bop import load_models
     from ycbvss.pipeline.perturb import perturb_poses
     from ycbvss.procedural.ycbv_scene import make_ycbv_scene
@@ -122,7 +112,7 @@ def main(argv=None) -> int:
     t_setup = time.perf_counter() - t0
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     imgs = LazyImages(ps)
-    opt = RefineOptions(keyframe_step=max(1, args.frames // args.keyframes), **dict(_override(a) for a in args.opt))
+    opt = RefineOptions(keyframe_step=max(1, args.frames // args.keyframes), **dict(_option_override(a) for a in args.opt))
     if args.keyframes_only:
         return _keyframes_only(ps, gt, init, opt, imgs, oids)
     t0 = time.perf_counter()

@@ -800,6 +800,8 @@ def _lit_colour(vr: ViewRender, image: np.ndarray, light: np.ndarray | None) -> 
     ``image`` here when None (:mod:`ycbvss.refine.shading`): (lit colour, the lighting used)."""
     if light is None:
         light = view_lighting(vr.color, vr.normal, vr.instance, image)
+    if light is None:        # too few pixels to fit: the unlit template (lit_template would fit again)
+        return np.asarray(vr.color), None
     return lit_template(vr.color, vr.normal, vr.instance, image, coeffs=light), light
 
 
