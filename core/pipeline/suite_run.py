@@ -35,7 +35,7 @@ from .suite_report import visibility, write_report
 ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant", "im_id", "obj_id",
               "tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "dx_mm", "dy_mm", "dz_mm", "init_add_mm", "init_prj_px",
               "sigma_tx_mm", "sigma_ty_mm", "sigma_tz_mm", "sigma_r_deg", "status", "confidence", "contour_px",
-              "time_s", "n_frames", "contour_worst_px", "reason")
+              "time_s", "n_frames", "contour_worst_px", "reason", "rx_obj_deg", "ry_obj_deg", "rz_obj_deg")
 VARIANTS = {"using all": {}, "w/o f_edge": {"use_edge": False}, "w/o f_point": {"use_point": False},
             "w/o f_t": {"use_temporal": False}}
 
@@ -153,7 +153,9 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 "contour_px": float(res.quality.get(oid, {}).get("contour_px", float("nan"))),
                 "time_s": dt, "n_frames": len(sc.frames),
                 "contour_worst_px": float(res.quality.get(oid, {}).get("contour_worst_px", float("nan"))),
-                "reason": res.reasons.get(k, "")})
+                "reason": res.reasons.get(k, ""),
+                **dict(zip(("rx_obj_deg", "ry_obj_deg", "rz_obj_deg"),
+                           rotation_error_in_model_deg(res.poses[k][:3, :3], gt[k][:3, :3])))})
     return rows
 
 
@@ -174,6 +176,20 @@ def plan(specs: list[SuiteScene], kinds=("short", "medium", "long"), seeds=(0,),
     return runs
 
 
+def rotation_error_in_model_deg(R_est, R_gt) -> tuple[float, float, float]:
+    """Rotation error as a rotation vector in the model frame (deg): R_est = R_gt Exp(w). Its
+    direction tells a roll about an object's own axis from a tilt of that axis."""
+    from scipy.spatial.transform import Rotation
+
+    w = Rotation.from_matrix(np.asarray(R_gt, float).T @ np.asarray(R_est, float)).as_rotvec(degrees=True)
+    return float(w[0]), float(w[1]), float(w[2])
+
+
+def _header(path: Path) -> list[str]:
+    with open(path, newline="") as fh:
+        return next(csv.reader(fh))
+
+
 def execute(runs: list[Run], root: Path, models: dict, out: Path, opts_kw: dict | None = None) -> Path:
     """Run what is not done yet; append rows to ``out/rows.csv``. Returns the CSV path."""
     out.mkdir(parents=True, exist_ok=True)
@@ -192,8 +208,10 @@ def execute(runs: list[Run], root: Path, models: dict, out: Path, opts_kw: dict 
                 scenes[sid] = load_bop_scene(root / "test", sid, models)
             rows = run_one(r, scenes[sid], models, opts_kw)
             new = not rows_path.is_file()
+            # a rows file begun by older code keeps its own columns (resumed runs stay aligned)
+            fields = ROW_FIELDS if new else _header(rows_path)
             with open(rows_path, "a", newline="") as fh:
-                w = csv.DictWriter(fh, fieldnames=ROW_FIELDS)
+                w = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore", restval="")
                 if new:
                     w.writeheader()
                 w.writerows(rows)

@@ -1,0 +1,50 @@
+"""Rows of the validation suite: the model-frame rotation error and appending to an older rows file."""
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ycbvss.eval.metrics import pose_errors
+from ycbvss.pipeline import suite_run
+from ycbvss.pipeline.suite_run import ROW_FIELDS, rotation_error_in_model_deg
+
+
+def test_model_frame_error_names_the_axis_and_matches_r_deg():
+    rng = np.random.default_rng(3)
+    R_gt = Rotation.random(random_state=4).as_matrix()
+    roll = Rotation.from_rotvec([0.0, 0.0, 0.5], degrees=True).as_matrix()      # about the model's own z
+    w = rotation_error_in_model_deg(R_gt @ roll, R_gt)
+    assert np.allclose(w, (0.0, 0.0, 0.5), atol=1e-9)
+    # any error: its norm is the metric's R error
+    d = Rotation.from_rotvec(rng.normal(size=3) * 0.01).as_matrix()
+    w = rotation_error_in_model_deg(R_gt @ d, R_gt)
+    K = np.array([[1000.0, 0, 320], [0, 1000, 240], [0, 0, 1]])
+    E = pose_errors((R_gt @ d)[None], np.array([[0, 0, 800.0]]), R_gt[None], np.array([[0, 0, 800.0]]),
+                    K[None], rng.normal(size=(50, 3)) * 30)
+    assert abs(np.linalg.norm(w) - float(E["r_deg"][0])) < 1e-6
+
+
+def test_resumed_run_appends_in_the_old_files_columns(tmp_path, monkeypatch):
+    old = [f for f in ROW_FIELDS if not f.startswith(("rx_", "ry_", "rz_"))]
+    assert len(old) == len(ROW_FIELDS) - 3
+    rows_path = tmp_path / "rows.csv"
+    with open(rows_path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=old)
+        w.writeheader()
+        w.writerow({f: "1" for f in old})
+    row = {f: "2" for f in ROW_FIELDS}
+
+    class _Clip:
+        scene_id, name = 1, "short-1"
+
+    class _Run:
+        clip, key = _Clip(), "short-1_paper_s0_usingall"
+
+    monkeypatch.setattr(suite_run, "load_bop_scene", lambda *a, **k: None)
+    monkeypatch.setattr(suite_run, "run_one", lambda *a, **k: [row])
+    suite_run.execute([_Run()], tmp_path / "root", {}, tmp_path)
+    got = list(csv.DictReader(open(rows_path)))
+    assert list(got[1].keys()) == old and all(v == "2" for v in got[1].values())
+    assert len(suite_run.read_rows(rows_path)) == 2
