@@ -35,7 +35,8 @@ from .suite_report import visibility, write_report
 ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant", "im_id", "obj_id",
               "tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "dx_mm", "dy_mm", "dz_mm", "init_add_mm", "init_prj_px",
               "sigma_tx_mm", "sigma_ty_mm", "sigma_tz_mm", "sigma_r_deg", "status", "confidence", "contour_px",
-              "time_s", "n_frames", "contour_worst_px", "reason", "rx_obj_deg", "ry_obj_deg", "rz_obj_deg")
+              "time_s", "n_frames", "contour_worst_px", "reason", "rx_obj_deg", "ry_obj_deg", "rz_obj_deg",
+              "interior_ncc", "turn_gain_ncc")
 VARIANTS = {"using all": {}, "w/o f_edge": {"use_edge": False}, "w/o f_point": {"use_point": False},
             "w/o f_t": {"use_temporal": False}}
 
@@ -154,6 +155,9 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 "time_s": dt, "n_frames": len(sc.frames),
                 "contour_worst_px": float(res.quality.get(oid, {}).get("contour_worst_px", float("nan"))),
                 "reason": res.reasons.get(k, ""),
+                # the refined pose's interior texture fit and its best turned copy's gain (refine.turn_check)
+                "interior_ncc": float(res.quality.get(oid, {}).get("interior_ncc", float("nan"))),
+                "turn_gain_ncc": float(res.quality.get(oid, {}).get("turn_gain_ncc", float("nan"))),
                 **dict(zip(("rx_obj_deg", "ry_obj_deg", "rz_obj_deg"),
                            rotation_error_in_model_deg(res.poses[k][:3, :3], gt[k][:3, :3])))})
     return rows
