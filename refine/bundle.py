@@ -33,7 +33,7 @@ from .shading import lit_template, view_lighting
 from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
                         render_view, select_edge_samples, view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
-from .turn_check import best_turn, interior_ncc, turn_transforms, turned_wrong
+from .turn_check import best_turn, interior_ncc, texture_share, turn_transforms, turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
                          sigma_floor, sigma_scale, worst_views_px)
 from .uncertainty import pose_sigmas
@@ -1307,6 +1307,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
                       shifted_px=shift[0][j], shift_limit_px=shift_limit_px(shift[1][j], views[i].width),
                       turn_gain=tf.gain if tf else float("nan"), turn_fit=tf.fit if tf else float("nan"),
                       turn_label=tf.label if tf else "",
+                      interior_ncc=tf.ncc if tf else float("nan"), texture=tf.texture if tf else float("nan"),
                       worst_contour_px=quality[oid].get("contour_worst_px", float("nan")),
                       held_hidden=oid in held_hidden)
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
@@ -1319,6 +1320,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
             quality[oid].setdefault("turn_best", tf.label)
             quality[oid].setdefault("interior_ncc", round(float(tf.ncc), 4))
             quality[oid].setdefault("turn_fit_ncc", round(float(tf.fit), 4))
+            quality[oid].setdefault("texture_share", round(float(tf.texture), 4))
     return status, confidence, reasons
 
 
@@ -1395,6 +1397,7 @@ class _TurnFit(NamedTuple):
     transform: np.ndarray | None
     ncc: float
     fit: float
+    texture: float = float("nan")   # the refined pose's template texture share (turn_check.texture_share)
 
 
 def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, syms: list,
@@ -1451,25 +1454,29 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
             base[j].append(fit(P[j]))
             for lab, A in turns[j]:
                 alt[j][lab].append(fit(P[j] @ A))
-    base = {j: [f.result() for f in fs] for j, fs in base.items()}
-    alt = {j: {lab: [f.result() for f in fs] for lab, fs in d.items()} for j, d in alt.items()}
+    base_tex = {j: [f.result() for f in fs] for j, fs in base.items()}
+    base = {j: [r[0] for r in v] for j, v in base_tex.items()}
+    alt = {j: {lab: [f.result()[0] for f in fs] for lab, fs in d.items()} for j, d in alt.items()}
     imgs.keep([])
     out = {}
     for j in turns:
         gain, lab, fit = best_turn(base[j], alt[j])
         b = np.asarray(base[j], float)
+        t = np.asarray([r[1] for r in base_tex[j]], float)
         out[obj_ids[j]] = _TurnFit(gain, lab, dict(turns[j]).get(lab),
-                                   float(np.mean(b[np.isfinite(b)])) if np.isfinite(b).any() else float("nan"), fit)
+                                   float(np.mean(b[np.isfinite(b)])) if np.isfinite(b).any() else float("nan"), fit,
+                                   float(np.mean(t[np.isfinite(t)])) if np.isfinite(t).any() else float("nan"))
     return out
 
 
 def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: np.ndarray,
-              occ_depth_mm: np.ndarray | None, occ_color: np.ndarray | None) -> float:
+              occ_depth_mm: np.ndarray | None, occ_color: np.ndarray | None) -> tuple[float, float]:
     """Interior NCC of gradient magnitudes between the image window ``crop`` (its gradient
     magnitude ``mag_c``) and the window with the rendered objects pasted in: the object under
     test (``depth_mm``, 0 = background, and template ``color``) in front of the other objects
     (``occ_depth_mm``, ``occ_color``; None: none) where it is nearer; the NCC is taken over the
-    object's visible pixels."""
+    object's visible pixels. Returns (NCC, the template's texture share there:
+    :func:`ycbvss.refine.turn_check.texture_share`)."""
     obj = depth_mm > 0
     tmpl = crop.copy()
     if occ_depth_mm is not None:
@@ -1477,7 +1484,8 @@ def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: 
         obj &= ~occ | (depth_mm < occ_depth_mm)
         np.copyto(tmpl, occ_color, where=(occ & ~obj)[..., None])
     np.copyto(tmpl, color, where=obj[..., None])
-    return interior_ncc(mag_c, gradient_magnitude(tmpl, 1.0), obj)
+    tm = gradient_magnitude(tmpl, 1.0)
+    return interior_ncc(mag_c, tm, obj), texture_share(tm, obj)
 
 
 def _sphere_window(view, T: np.ndarray, centre_mm: np.ndarray, radius_mm: float, margin_px: int = 8,

@@ -34,7 +34,9 @@ image edges (``contour_px > FAIL_PX``; both px thresholds are for 640-px-wide im
 and scale with the width); ``uncertain`` when the contour is loose (``> OK_PX``; in the median
 view or in the worst views), the calibrated ``sigma_add_mm`` exceeds ``SIGMA_OK_MM``, the object
 turned more than ``MAX_TURN_DEG`` from its initial pose (modulo symmetries), a copy of it turned 20-40 deg about a model axis fits the texture
-inside its silhouette better (:func:`ycbvss.refine.turn_check.turned_wrong`), or its projected centre moved farther from the initial poses' than
+inside its silhouette better (:func:`ycbvss.refine.turn_check.turned_wrong`), a textured object
+fits the texture inside its silhouette badly at the refined pose
+(:func:`ycbvss.refine.turn_check.texture_mismatch`), or its projected centre moved farther from the initial poses' than
 :func:`shift_limit_px` allows (median over views), the pose was still
 moving, the object had no image terms, or no visible contour of its own (a view's offset over
 its other objects can fail a pose, not verify it); ``converged`` otherwise. ``converged`` therefore means:
@@ -52,7 +54,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .turn_check import turned_wrong
+from .turn_check import texture_mismatch, turned_wrong
 
 CONTOUR_TRUNC_PX = 3.0
 OK_PX = 1.0             # contour thresholds at REF_WIDTH_PX; scaled with the image width
@@ -318,14 +320,18 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
              numerical_failure: bool = False, width_px: int = REF_WIDTH_PX, turned_deg: float = 0.0,
              shifted_px: float = 0.0, shift_limit_px: float = float("inf"), turn_gain: float = float("nan"),
              turn_fit: float = float("nan"), turn_label: str = "", own_contour: bool = True,
-             worst_contour_px: float = float("nan"), held_hidden: bool = False) -> PoseStatus:
+             worst_contour_px: float = float("nan"), held_hidden: bool = False,
+             interior_ncc: float = float("nan"), texture: float = float("nan")) -> PoseStatus:
     """Status and confidence of one pose (see the module docstring for the rules). ``contour_px``
     is measured in an image ``width_px`` wide; the thresholds ``OK_PX`` / ``FAIL_PX`` hold at
     ``REF_WIDTH_PX`` (YCB-V's 640 px) and scale with the width, so an offset means the same
     angular (and metric) misalignment at any resolution. ``worst_contour_px``: the object's
     :func:`worst_views_px` over all its views (same thresholds: above ``OK_PX`` uncertain).
     ``held_hidden``: the refinement hid the object in every view and it was held at an earlier pose
-    (``refine.bundle._Stage._verify_coarse_moves``): uncertain, confidence halved."""
+    (``refine.bundle._Stage._verify_coarse_moves``): uncertain, confidence halved.
+    ``interior_ncc`` / ``texture``: the refined pose's interior texture fit and its template's
+    texture share (:mod:`ycbvss.refine.turn_check`); a textured object that fits badly is
+    uncertain, confidence halved (:func:`ycbvss.refine.turn_check.texture_mismatch`)."""
     if numerical_failure:
         return PoseStatus("failed", 0.0, "numerical failure")
     reasons = []
@@ -360,6 +366,9 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
     if turned_wrong(turn_gain, turn_fit):
         reasons.append(f"the object turned {turn_label} fits the texture inside its silhouette better "
                        f"(NCC {turn_fit:.2f}, +{turn_gain:.2f})")
+        conf *= 0.5
+    elif texture_mismatch(interior_ncc, texture):
+        reasons.append(f"the texture inside its silhouette does not match (NCC {interior_ncc:.2f})")
         conf *= 0.5
     if held_hidden:
         conf *= 0.5

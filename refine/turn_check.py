@@ -38,6 +38,16 @@ MIN_INTERIOR_PX = 200
 # fitting 0.54 and 0.77 (refined pose 0.20, 0.50); the CI marker turned 40 deg, 0.96 after the restart.
 GAIN_MIN = 0.05
 FIT_MIN = 0.3
+# A textured object whose refined pose fits the texture inside its silhouette this badly is no
+# right pose, whichever turn would fit better: at the suite's short clips' correct poses (ADD < 2
+# mm, scenes 1-9, seeds 0-1) every object's interior NCC was >= 0.28 (textured ones >= 0.77), while
+# short-8's sugar box, turned 15 deg and 21 mm too far from PRJ 20 px, fitted 0.21 and its best
+# turned copy 0.27 (< FIT_MIN). "Textured": at least TEXTURED_MIN of the template's interior pixels
+# have an edge strength (refine.edge.gradient_magnitude, sigma 1 px, 8-bit units) above TEXTURE_MAG;
+# a plain or smoothly shaded surface has almost none, so its NCC (noise) is never judged.
+NCC_TEXTURED_MIN = 0.25
+TEXTURE_MAG = 8.0
+TEXTURED_MIN = 0.15
 
 
 def turn_transforms(centre_mm: np.ndarray, syms: np.ndarray, turns_deg=TURNS_DEG,
@@ -81,6 +91,22 @@ def interior_ncc(image_mag: np.ndarray, template_mag: np.ndarray, mask: np.ndarr
     b -= b.mean()
     den = float(np.linalg.norm(a) * np.linalg.norm(b))
     return float(a @ b) / den if den > 1e-12 else float("nan")
+
+
+def texture_share(template_mag: np.ndarray, mask: np.ndarray, erode_px: int = ERODE_PX,
+                  min_px: int = MIN_INTERIOR_PX, mag_min: float = TEXTURE_MAG) -> float:
+    """Share of the template's interior pixels (``mask`` eroded by ``erode_px``) whose edge strength
+    exceeds ``mag_min``: how much texture the object shows there; NaN below ``min_px`` pixels."""
+    inner = interior_mask(mask, erode_px)
+    n = int(inner.sum())
+    return float((template_mag[inner] > mag_min).sum()) / n if n >= min_px else float("nan")
+
+
+def texture_mismatch(ncc: float, texture: float) -> bool:
+    """Whether a textured object's (``texture`` >= TEXTURED_MIN, :func:`texture_share`) refined pose
+    fits the texture inside its silhouette too badly to be right: interior ``ncc`` below
+    NCC_TEXTURED_MIN."""
+    return bool(np.isfinite(ncc) and np.isfinite(texture) and texture >= TEXTURED_MIN and ncc < NCC_TEXTURED_MIN)
 
 
 def best_turn(base_ncc: list[float], turn_ncc: dict[str, list[float]]) -> tuple[float, str, float]:

@@ -7,7 +7,8 @@ import numpy as np
 from ycbvss.geometry.so3 import rotation_angle_deg
 from ycbvss.geometry.symmetry import symmetry_group
 from ycbvss.refine.confidence import classify
-from ycbvss.refine.turn_check import (FIT_MIN, GAIN_MIN, TURNS_DEG, best_turn, interior_mask, interior_ncc,
+from ycbvss.refine.turn_check import (FIT_MIN, GAIN_MIN, NCC_TEXTURED_MIN, TEXTURE_MAG, TEXTURED_MIN, TURNS_DEG,
+                                      best_turn, interior_mask, interior_ncc, texture_mismatch, texture_share,
                                       turn_transforms, turned_wrong)
 
 
@@ -65,3 +66,31 @@ def test_a_pose_a_turned_copy_fits_better_is_uncertain():
     # turned copy 0.16 better by chance
     assert classify(0.36, 0.5, 0.0, True, turn_gain=0.16, turn_fit=0.12).status == "converged"
     assert turned_wrong(0.34, 0.54) and not turned_wrong(0.34, FIT_MIN - 0.01) and not turned_wrong(GAIN_MIN, 0.9)
+
+
+def test_texture_share_counts_strong_interior_edges_only():
+    H, W = 120, 160
+    mask = np.zeros((H, W), bool)
+    mask[20:100, 30:130] = True
+    inner = interior_mask(mask)
+    mag = np.full((H, W), 0.5 * TEXTURE_MAG, np.float32)      # smooth shading: below the edge strength
+    mag[mask & ~inner] = 40.0                                 # the silhouette's own edge is not texture
+    assert texture_share(mag, mask) == 0.0
+    ys, xs = np.nonzero(inner)
+    mag[ys[::4], xs[::4]] = 3.0 * TEXTURE_MAG                 # every 4th interior pixel a texture edge
+    assert abs(texture_share(mag, mask) - len(ys[::4]) / len(ys)) < 1e-12
+    assert np.isnan(texture_share(mag, np.zeros((H, W), bool)))
+
+
+def test_a_textured_object_that_fits_its_texture_badly_is_uncertain():
+    # measured on the suite (short-8 from PRJ 20 px, seed 2): the sugar box ended 15 deg turned and
+    # 21 mm too far, contour 0.39 px, interior NCC 0.21 with texture share 0.35; its best turned copy
+    # fitted 0.27 (below FIT_MIN), so the turned-copy rule alone reported it converged
+    bad = classify(0.39, 1.4, 0.0, True, turn_gain=0.065, turn_fit=0.27, interior_ncc=0.21, texture=0.35)
+    assert bad.status == "uncertain" and "does not match (NCC 0.21)" in bad.reason and bad.confidence < 0.5
+    # correct poses: textured objects fit >= 0.77 on the suite; an untextured clamp at 0.28 (share 0.04)
+    assert classify(0.39, 1.4, 0.0, True, interior_ncc=0.91, texture=0.37).status == "converged"
+    assert classify(0.39, 1.4, 0.0, True, interior_ncc=0.05, texture=0.04).status == "converged"
+    assert classify(0.39, 1.4, 0.0, True, interior_ncc=float("nan"), texture=0.35).status == "converged"
+    assert texture_mismatch(NCC_TEXTURED_MIN - 0.01, TEXTURED_MIN)
+    assert not texture_mismatch(NCC_TEXTURED_MIN, 0.9) and not texture_mismatch(0.0, TEXTURED_MIN - 0.01)
