@@ -40,7 +40,7 @@ GAIN_MIN = 0.05
 FIT_MIN = 0.3
 # A textured object whose refined pose fits the texture inside its silhouette this badly is no
 # right pose, whichever turn would fit better: at the suite's short clips' correct poses (ADD < 2
-# mm, scenes 1-9, seeds 0-1) every object's interior NCC was >= 0.28 (textured ones >= 0.77), while
+# mm, scenes 1-9, seeds 0-1) every object's interior NCC was >= 0.28 (all but the untextured extra-large clamp >= 0.42), while
 # short-8's sugar box, turned 15 deg and 21 mm too far from PRJ 20 px, fitted 0.21 and its best
 # turned copy 0.27 (< FIT_MIN). "Textured": at least TEXTURED_MIN of the template's interior pixels
 # have an edge strength (refine.edge.gradient_magnitude, sigma 1 px, 8-bit units) above TEXTURE_MAG;
