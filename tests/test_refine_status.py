@@ -341,13 +341,13 @@ def test_the_ridge_does_not_stall_an_object_turning_about_its_own_centre():
 
 def test_the_point_motion_ridge_by_viewing_baseline():
     """RefineOptions.object_ridge: at which blur levels a keyframe bundle uses the point-motion
-    ridge. Default "narrow": every level on narrow bundles (short clips, started at 4 px), never on
-    medium and wide ones. "by_baseline" (an option) adds the finest level on wide ones (long clips:
-    weakly seen turns reach the cost's rest; not the default, a banana started 60 mm off then
-    rolls 11 deg unflagged). Other values keep their meaning; anything else is refused."""
+    ridge. Default "by_baseline": every level on narrow bundles (short clips, started at 4 px),
+    never on medium ones, the finest level on wide ones (long clips: weakly seen turns reach the
+    cost's rest instead of stalling where the initialisation put them). "narrow" (the default until
+    session 38) leaves wide ones out too. Other values keep their meaning; anything else is refused."""
     from ycbvss.refine.bundle import RefineOptions, _ridge_levels, refine_scene
 
-    assert RefineOptions().object_ridge == "narrow"
+    assert RefineOptions().object_ridge == "by_baseline"
     got = {(v, g): _ridge_levels(v, g) for v in (False, True, "finest", "narrow", "by_baseline")
            for g in ("narrow", "medium", "wide")}
     assert [got[("by_baseline", g)] for g in ("narrow", "medium", "wide")] == ["every", "none", "finest"]
