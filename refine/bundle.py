@@ -33,7 +33,7 @@ from .shading import lit_template, view_lighting
 from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
                         render_view, select_edge_samples, view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
-from .turn_check import best_turn, interior_ncc, texture_share, turn_transforms, turned_wrong
+from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
                          sigma_floor, sigma_scale, worst_views_px)
 from .uncertainty import pose_sigmas
@@ -1451,13 +1451,14 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
             # in _turn_ncc (the same picture as drawing them together, but each turn draws one mesh)
             occ = (renderer.render(K, W, H, others, outputs=("depth", "color")) if others else None)
 
-            def fit(T):
+            def fit(T, texture=False):
                 out = renderer.render(K, W, H, [(key, T)], outputs=("depth", "color"))
                 return _view_pool().submit(_turn_ncc, crop, mag_c, out.depth_mm, out.color,
-                                           None if occ is None else occ.depth_mm, None if occ is None else occ.color)
+                                           None if occ is None else occ.depth_mm, None if occ is None else occ.color,
+                                           texture)
 
             # renders here (the GL thread), the NCCs on the view pool; results collected below
-            base[j].append(fit(P[j]))
+            base[j].append(fit(P[j], texture=True))
             for lab, A in turns[j]:
                 alt[j][lab].append(fit(P[j] @ A))
     base_tex = {j: [f.result() for f in fs] for j, fs in base.items()}
@@ -1476,13 +1477,14 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
 
 
 def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: np.ndarray,
-              occ_depth_mm: np.ndarray | None, occ_color: np.ndarray | None) -> tuple[float, float]:
+              occ_depth_mm: np.ndarray | None, occ_color: np.ndarray | None,
+              texture: bool = False) -> tuple[float, float]:
     """Interior NCC of gradient magnitudes between the image window ``crop`` (its gradient
     magnitude ``mag_c``) and the window with the rendered objects pasted in: the object under
     test (``depth_mm``, 0 = background, and template ``color``) in front of the other objects
     (``occ_depth_mm``, ``occ_color``; None: none) where it is nearer; the NCC is taken over the
-    object's visible pixels. Returns (NCC, the template's texture share there:
-    :func:`ycbvss.refine.turn_check.texture_share`)."""
+    object's visible pixels. Returns (NCC, the template's texture share there with ``texture``,
+    :func:`ycbvss.refine.turn_check.texture_share`, else NaN)."""
     obj = depth_mm > 0
     tmpl = crop.copy()
     if occ_depth_mm is not None:
@@ -1491,7 +1493,9 @@ def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: 
         np.copyto(tmpl, occ_color, where=(occ & ~obj)[..., None])
     np.copyto(tmpl, color, where=obj[..., None])
     tm = gradient_magnitude(tmpl, 1.0)
-    return interior_ncc(mag_c, tm, obj), texture_share(tm, obj)
+    inner = interior_mask(obj)          # eroded once for both measures
+    return (interior_ncc(mag_c, tm, inner, erode_px=0),
+            texture_share(tm, inner, erode_px=0) if texture else float("nan"))
 
 
 def _sphere_window(view, T: np.ndarray, centre_mm: np.ndarray, radius_mm: float, margin_px: int = 8,

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import YcbvssError
 from ..eval.metrics import pose_errors
+from ..geometry.so3 import log_so3
 from ..io.atomic import write_json_atomic
 from ..io.bop import load_bop_scene
 from ..progress import progress
@@ -183,9 +184,7 @@ def plan(specs: list[SuiteScene], kinds=("short", "medium", "long"), seeds=(0,),
 def rotation_error_in_model_deg(R_est, R_gt) -> tuple[float, float, float]:
     """Rotation error as a rotation vector in the model frame (deg): R_est = R_gt Exp(w). Its
     direction tells a roll about an object's own axis from a tilt of that axis."""
-    from scipy.spatial.transform import Rotation
-
-    w = Rotation.from_matrix(np.asarray(R_gt, float).T @ np.asarray(R_est, float)).as_rotvec(degrees=True)
+    w = np.degrees(log_so3(np.asarray(R_gt, float).T @ np.asarray(R_est, float)))
     return float(w[0]), float(w[1]), float(w[2])
 
 
