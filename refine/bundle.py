@@ -112,7 +112,17 @@ class RefineOptions:
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
     edge_linear: bool = False         # edge field of the linear-light image (sRGB decoded), see refine.edge.srgb_to_linear
     edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
-    edge_rim_depth: bool = False      # contour samples lifted at the rim's depth (chord midpoint, refine.edge.rim_depth), not the contour pixel's
+    # contour samples lifted at the rim's depth (the chord midpoint of the ray through the contour
+    # pixel, refine.edge.rim_depth: one back-face render pass more per template) instead of the depth
+    # of the front surface at the pixel's centre, which for a rounded silhouette lies in front of the
+    # rim and gives the contour a false sensitivity to turns about the object's own axis (long-1's
+    # banana rested 0.55 deg off about its long axis with the cameras held at the exact GT, 0.36 with
+    # this). True: every scene; a comma-separated list of baseline groups: the scenes whose keyframe
+    # bundle is of one of them; False or "": never. Default "wide" (session 39; suite long clips 1-3,
+    # paper init, seeds 0 and 5: tx/ty/tz/R/PRJ 0.080/0.054/0.401/0.145/0.099 -> 0.079/0.055/0.390/
+    # 0.138/0.098, objects meeting every long target 17 -> 18 of 21; held-out long-3 0.076/0.071/
+    # 0.491/0.103/0.098 -> 0.074/0.073/0.481/0.105/0.100). Short and medium scenes are not measured with it
+    edge_rim_depth: bool | str = "wide"
     # ... moved by what the template's texture and the image's background predict, at the finest blur
     # level. True: every bundle; "narrow": narrow-baseline bundles only. Off by default (see template_shading;
     # bias_removal_groups sets it on medium and wide scenes)
@@ -1544,10 +1554,11 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     keyframes' initial cameras see the objects over a baseline of a group in
     ``opt.bias_removal_groups`` (the group :func:`_refine_keyframes` finds from the same poses)."""
     stats["bias_removal"] = False
-    groups = _groups(opt.bias_removal_groups)
-    if not groups or not np.any(known):
-        return opt
-    if _keyframe_group(pb0.T_c[kf], pb0.T_m[known], opt.min_baseline_deg)[2] not in groups:
+    group = _keyframe_group(pb0.T_c[kf], pb0.T_m[known], opt.min_baseline_deg)[2] if np.any(known) else None
+    if isinstance(opt.edge_rim_depth, str):      # resolved once per scene from the keyframes' group
+        opt = dc_replace(opt, edge_rim_depth=group in _groups(opt.edge_rim_depth))
+    stats["edge_rim_depth"] = bool(opt.edge_rim_depth)
+    if group is None or group not in _groups(opt.bias_removal_groups):
         return opt
     stats["bias_removal"] = True
     return dc_replace(opt, **BIAS_REMOVAL)
@@ -1656,10 +1667,13 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if opt.interior_sharpness_bundles not in ("narrow", "all"):
         raise YcbvssError(f"RefineOptions.interior_sharpness_bundles must be 'narrow' or 'all', got "
                           f"{opt.interior_sharpness_bundles!r}", where=f"scene {scene.scene_id}")
-    try:
-        _groups(opt.bias_removal_groups)
-    except ValueError as e:
-        raise YcbvssError(f"RefineOptions.bias_removal_groups: {e}", where=f"scene {scene.scene_id}") from None
+    for name in ("bias_removal_groups", "edge_rim_depth"):
+        if name == "edge_rim_depth" and isinstance(opt.edge_rim_depth, bool):
+            continue
+        try:
+            _groups(getattr(opt, name))
+        except ValueError as e:
+            raise YcbvssError(f"RefineOptions.{name}: {e}", where=f"scene {scene.scene_id}") from None
     if opt.interior_turn_groups not in ("wide", "medium"):
         raise YcbvssError(f"RefineOptions.interior_turn_groups must be 'wide' or 'medium', got "
                           f"{opt.interior_turn_groups!r}", where=f"scene {scene.scene_id}")

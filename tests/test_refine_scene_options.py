@@ -1,4 +1,5 @@
-"""RefineOptions.bias_removal_groups: which scenes get BIAS_REMOVAL (refine.bundle._scene_options)."""
+"""RefineOptions.bias_removal_groups and edge_rim_depth: which scenes get BIAS_REMOVAL and the rim-depth
+lift of the contour samples (refine.bundle._scene_options)."""
 from types import SimpleNamespace
 
 import numpy as np
@@ -36,7 +37,7 @@ WIDE, MEDIUM, NARROW = [0, 20, 40, 60], [0, 10, 20], [0, 3, 6]     # baselines 6
                                              ("", set()), ("narrow", {"narrow"})])
 def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
     known = np.ones(3, bool)
-    opt = RefineOptions(bias_removal_groups=groups)
+    opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False)    # a bool: nothing else to resolve
     for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
         stats: dict = {}
         got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
@@ -60,3 +61,25 @@ def test_an_unknown_group_is_an_error_naming_the_option():
 def test_an_unknown_flow_prior_levels_is_an_error_naming_the_option():
     with pytest.raises(YcbvssError, match="flow_prior_levels"):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(flow_prior_levels="fine"))
+
+
+@pytest.mark.parametrize("spec, on", [("wide", {"wide"}), ("medium,wide", {"medium", "wide"}), ("", set()),
+                                      (True, {"wide", "medium", "narrow"}), (False, set())])
+def test_rim_depth_is_resolved_per_scene_from_the_keyframes_baseline_group(spec, on):
+    known = np.ones(3, bool)
+    opt = RefineOptions(edge_rim_depth=spec)
+    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
+        stats: dict = {}
+        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+        assert got.edge_rim_depth is (name in on)          # always a bool after resolution
+        assert stats["edge_rim_depth"] is (name in on)
+    assert opt.edge_rim_depth == spec                       # the caller's options untouched
+
+
+def test_the_default_lifts_contour_samples_at_the_rim_on_wide_scenes_only():
+    assert RefineOptions().edge_rim_depth == "wide"
+
+
+def test_an_unknown_rim_depth_group_is_an_error_naming_the_option():
+    with pytest.raises(YcbvssError, match="edge_rim_depth"):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(edge_rim_depth="long"))

@@ -218,11 +218,11 @@ def test_lit_template_options_are_checked(scene4):
 
 
 def test_rim_depth_option_refines_like_the_default(scene4):
-    """``edge_rim_depth`` (contour samples lifted at the rim from the back-face pass; off by default)
-    runs the whole bundle and reaches the default's sub-pixel accuracy (a unit test, fast-rendered
-    images: not evidence of accuracy on real data; the suite measured no gain, see the results
-    README). Measured at 320x240, 4 views, from a 3.8 px / 13.5 mm init, 4 finest iterations:
-    default / rim PRJ 0.150 / 0.155 px, tz 1.08 / 0.99 mm."""
+    """``edge_rim_depth`` (contour samples lifted at the rim from the back-face pass; by default on
+    wide scenes only, so off for this one) runs the whole bundle and reaches the accuracy without it
+    (a unit test, fast-rendered images: not evidence of accuracy on real data; the suite's long clips
+    measure it, see bench/results/ycbv21/README.md). Measured at 320x240, 4 views, from a 3.8 px /
+    13.5 mm init, 4 finest iterations: without / with PRJ 0.150 / 0.155 px, tz 1.08 / 0.99 mm."""
     ps, imgs, gt, pts = scene4
     K = ps.frames[0].camera.K
     init = deviate_scene(ps.T_m2w, {f.im_id: f.T_w2c for f in ps.frames}, np.random.default_rng(3),
