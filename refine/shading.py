@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .edge import linear_to_srgb, srgb_to_linear
+from .edge import srgb_to_linear
+from .srgb import encode_u8
 
 N_SH = 9
 
@@ -32,8 +33,8 @@ def _u8(x: np.ndarray) -> np.ndarray:
 
 
 def _linear_to_srgb_u8(lin: np.ndarray) -> np.ndarray:
-    """Linear light in [0, 255] -> 8-bit sRGB."""
-    return np.clip(np.rint(linear_to_srgb(lin)), 0, 255).astype(np.uint8)
+    """Linear light in [0, 255] -> 8-bit sRGB (:func:`ycbvss.refine.srgb.encode_u8`)."""
+    return encode_u8(lin)
 
 
 def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray,
@@ -46,13 +47,15 @@ def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask
     coefficients relative to the data. ``trim``: refit twice without pixels whose residual exceeds
     ``trim`` x the median absolute residual (cast shadows, highlights, occluders the template lacks).
     At most ``max_px`` pixels (a fixed random subset). None when fewer than 50 usable pixels."""
-    m = np.asarray(mask, bool)
-    alb, img = _u8(np.asarray(albedo)[m]), _u8(np.asarray(image)[m])      # (N, 3) uint8 of the masked pixels
-    nrm = np.asarray(normals)[m].astype(np.float64)
+    px = np.flatnonzero(np.asarray(mask, bool))                         # flat indices: faster than a 2D mask
+    alb, img = _u8(np.asarray(albedo).reshape(-1, 3)[px]), _u8(np.asarray(image).reshape(-1, 3)[px])
+    nrm = np.asarray(normals).reshape(-1, 3)[px].astype(np.float64)
     nn = np.linalg.norm(nrm, axis=1)
     lut = srgb_to_linear(np.arange(256, dtype=np.uint8))               # increasing: min/max commute with it
+    a_min = np.minimum(np.minimum(alb[:, 0], alb[:, 1]), alb[:, 2])
+    i_max = np.maximum(np.maximum(img[:, 0], img[:, 1]), img[:, 2])
     # no albedo: no shading; saturated: clipped
-    ok = np.flatnonzero((nn > 0.5) & (lut[alb.min(axis=1)] > 2.0) & (lut[img.max(axis=1)] < 254.0))
+    ok = np.flatnonzero((nn > 0.5) & (lut[a_min] > 2.0) & (lut[i_max] < 254.0))
     if len(ok) < 50:
         return None
     if len(ok) > max_px:
@@ -68,7 +71,7 @@ def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask
         keep = np.ones(len(a), bool)
         aB = a[:, c, None] * B
         for _ in range(3):
-            X = aB[keep]
+            X = np.compress(keep, aB, axis=0)
             A = X.T @ X
             A[np.diag_indices(N_SH)] += reg * np.trace(A) / N_SH
             C[c] = np.linalg.solve(A, X.T @ i[keep, c])
@@ -82,11 +85,12 @@ def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask
 def shade(albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
     """The template lit by ``coeffs`` (3, 9) where ``mask``, else ``albedo`` unchanged: (H, W, 3) uint8 sRGB."""
     out = np.array(albedo, copy=True)
-    m = np.asarray(mask, bool)
-    n = np.asarray(normals, np.float64)[m]
+    px = np.flatnonzero(np.asarray(mask, bool))
+    n = np.asarray(normals).reshape(-1, 3)[px].astype(np.float64)
     n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-9)
     s = np.clip(sh9_basis(n) @ coeffs.T, 0.0, None)                      # (N, 3) irradiance per channel
-    out[m] = _linear_to_srgb_u8(srgb_to_linear(out[m]) * s)
+    flat = out.reshape(-1, 3)                                            # a view of out (a fresh copy)
+    flat[px] = _linear_to_srgb_u8(srgb_to_linear(flat[px]) * s)
     return out
 
 

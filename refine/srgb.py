@@ -9,6 +9,9 @@ tables against colour-science):
 - ``decode_u8`` (256,): linear light of each 8-bit code, in [0, 1];
 - ``encode`` (ENCODE_SIZE + 1,): encoded value at linear light k / ENCODE_SIZE, read by linear
   interpolation (at most 2e-5 off colour-science's value, 0.005 of an 8-bit step).
+
+:func:`encode_u8` rounds that encoding to 8-bit codes through a per-cell threshold table derived
+from ``encode`` (same codes as rounding :func:`encode`, ~20x faster than ``np.interp``).
 """
 from __future__ import annotations
 
@@ -44,6 +47,39 @@ def encode(linear01: np.ndarray) -> np.ndarray:
     """Linear light (clipped to [0, 1]) -> sRGB-encoded value in [0, 1], float64."""
     x = np.clip(np.asarray(linear01, np.float64), 0.0, 1.0)
     return np.interp(x, _ENCODE_GRID, tables()["encode"])
+
+
+# encode_u8's cells: linear light [0, 255] cut into U8_CELLS equal cells; the steepest part of the
+# encoding (slope 12.92 near black) puts at most one code boundary into a cell of 255 / 8192
+U8_CELLS = 8192
+_U8_TABLE: tuple[np.ndarray, np.ndarray] | None = None
+
+
+def _u8_table() -> tuple[np.ndarray, np.ndarray]:
+    """Per cell: the code at its lower edge (uint8) and the linear light (in [0, 255]) of the one
+    code boundary inside it, +inf when none. A boundary is where :func:`encode` x 255 crosses
+    k + 0.5, found by inverting the piecewise-linear encode table."""
+    global _U8_TABLE
+    if _U8_TABLE is None:
+        bounds = np.interp((np.arange(255) + 0.5) / 255.0, tables()["encode"], _ENCODE_GRID) * 255.0
+        edges = np.arange(U8_CELLS + 1) * (255.0 / U8_CELLS)
+        lo = np.searchsorted(bounds, edges[:-1], side="right")
+        inside = np.searchsorted(bounds, edges[1:], side="left") - lo
+        if inside.max() > 1:           # cannot happen for sRGB; a wrong table would break encode_u8
+            raise ValueError(f"{TABLES}: more than one 8-bit code boundary in a cell of the encode table")
+        thr = np.full(U8_CELLS, np.inf)
+        thr[inside == 1] = bounds[lo[inside == 1]]
+        _U8_TABLE = (lo.astype(np.uint8), thr)
+    return _U8_TABLE
+
+
+def encode_u8(linear255: np.ndarray) -> np.ndarray:
+    """Linear light in [0, 255] (clipped) -> 8-bit sRGB code, uint8 of the same shape: the
+    rounded :func:`encode` (codes differ only where the encoding is exactly k + 0.5)."""
+    lo, thr = _u8_table()
+    x = np.asarray(linear255)
+    cell = np.clip((x * (U8_CELLS / 255.0)).astype(np.int32), 0, U8_CELLS - 1)
+    return lo[cell] + (x >= thr[cell]).astype(np.uint8)
 
 
 if __name__ == "__main__":

@@ -37,3 +37,24 @@ def test_lit_template_does_not_import_colour_science():
             "print('colour' in sys.modules)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False", out.stdout + out.stderr
+
+
+def test_encode_u8_equals_rounded_encode():
+    """encode_u8 (per-cell threshold table) gives the codes of rint(encode x 255) everywhere except
+    exactly on a code boundary (a tie that np.rint breaks to even)."""
+    from ycbvss.refine.edge import linear_to_srgb
+    from ycbvss.refine.srgb import _u8_table, encode_u8
+
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.uniform(-5.0, 260.0, 400000), np.linspace(0.0, 255.0, 100001), [0.0, 255.0]])
+    ref = np.clip(np.rint(linear_to_srgb(x)), 0, 255).astype(np.uint8)
+    got = encode_u8(x)
+    assert got.dtype == np.uint8 and got.shape == x.shape
+    assert int((got != ref).sum()) == 0
+    bounds = np.sort(_u8_table()[1][np.isfinite(_u8_table()[1])])
+    assert len(bounds) == 255                                          # one boundary per code step
+    below, above = np.nextafter(bounds, -np.inf), np.nextafter(bounds, np.inf)
+    assert np.array_equal(encode_u8(above) - encode_u8(below), np.ones(255, np.uint8))
+    f32 = rng.uniform(0.0, 255.0, (300, 400, 3)).astype(np.float32)      # images come as float32 too
+    ref32 = np.clip(np.rint(linear_to_srgb(f32)), 0, 255).astype(np.uint8)
+    assert (encode_u8(f32) != ref32).mean() < 1e-5
