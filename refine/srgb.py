@@ -44,9 +44,27 @@ def tables() -> dict[str, np.ndarray]:
 
 
 def encode(linear01: np.ndarray) -> np.ndarray:
-    """Linear light (clipped to [0, 1]) -> sRGB-encoded value in [0, 1], float64."""
+    """Linear light (clipped to [0, 1]) -> sRGB-encoded value in [0, 1], float64: the encode
+    table read by linear interpolation. The grid is uniform (k / ENCODE_SIZE, exact in float64),
+    so the cell index is a floor, not a search; the arithmetic is ``np.interp``'s (slope x offset
+    + value), so the values are bit-identical to it, ~10x faster."""
     x = np.clip(np.asarray(linear01, np.float64), 0.0, 1.0)
-    return np.interp(x, _ENCODE_GRID, tables()["encode"])
+    slope, enc = _encode_slopes()
+    cell = np.clip((x * ENCODE_SIZE).astype(np.intp), 0, ENCODE_SIZE - 1)      # NaN: any cell, stays NaN
+    out = slope[cell] * (x - _ENCODE_GRID[cell]) + enc[cell]
+    return np.where(x >= 1.0, enc[-1], out)
+
+
+_SLOPES: np.ndarray | None = None
+
+
+def _encode_slopes() -> tuple[np.ndarray, np.ndarray]:
+    """(per-cell slope of the encode table (ENCODE_SIZE,), the table (ENCODE_SIZE + 1,))."""
+    global _SLOPES
+    enc = tables()["encode"]
+    if _SLOPES is None:
+        _SLOPES = np.diff(enc) / np.diff(_ENCODE_GRID)
+    return _SLOPES, enc
 
 
 # encode_u8's cells: linear light [0, 255] cut into U8_CELLS equal cells; the steepest part of the

@@ -58,3 +58,14 @@ def test_encode_u8_equals_rounded_encode():
     f32 = rng.uniform(0.0, 255.0, (300, 400, 3)).astype(np.float32)      # images come as float32 too
     ref32 = np.clip(np.rint(linear_to_srgb(f32)), 0, 255).astype(np.uint8)
     assert (encode_u8(f32) != ref32).mean() < 1e-5
+
+
+def test_encode_is_np_interp_of_the_table():
+    """srgb.encode reads the table by a floor index, not a search: bit-identical to np.interp."""
+    from ycbvss.refine.srgb import _ENCODE_GRID, encode, tables
+
+    x = np.concatenate([np.random.default_rng(5).uniform(-0.1, 1.1, 500000), _ENCODE_GRID, [0.0, 1.0, -0.0]])
+    ref = np.interp(np.clip(x, 0.0, 1.0), _ENCODE_GRID, tables()["encode"])
+    assert np.array_equal(encode(x), ref)
+    assert np.isnan(encode(np.array([np.nan, 0.5]))[0])
+    assert encode(np.float32(0.5)).shape == () and encode(np.ones((2, 3, 3))).shape == (2, 3, 3)
