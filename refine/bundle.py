@@ -30,6 +30,7 @@ from .matching import (FlowOptions, dense_flow_pair, flow_matches, min_eig_map, 
 from .problem import BundleProblem, View, model_moments
 from .solver import SolverOptions, covariance, run_lm
 from .shading import lit_template, view_lighting
+from .threads import single_threaded_kernels
 from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
                         render_view, select_edge_samples, view_edge_candidates)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
@@ -1689,6 +1690,12 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if opt.fix_cameras and opt.fix_objects:
         raise YcbvssError("RefineOptions.fix_cameras and fix_objects together leave nothing to refine",
                           where=f"scene {scene.scene_id}")
+    with single_threaded_kernels():        # the refiner's own threads use the cores (refine.threads)
+        return _refine_scene_checked(scene, models, init, opt, images)
+
+
+def _refine_scene_checked(scene, models: dict, init: dict, opt: RefineOptions, images: dict | None) -> RefineResult:
+    """:func:`refine_scene` after its options were checked: one pass, or two with ``turn_restart``."""
     if not (opt.turn_check and opt.turn_restart):
         return _refine_scene_pass(scene, models, init, opt, images)[0]
     # the warnings of a pass are held back until it is known which pass's result is returned, so

@@ -36,19 +36,33 @@ def _crop_box(uv: np.ndarray, shape: tuple[int, int], margin_px: int) -> tuple[i
     return max(lo[1], 0), max(lo[0], 0), min(hi[1], H), min(hi[0], W)
 
 
-def _edge_cost(mask_f: np.ndarray, sigma_px: float) -> EdgeField:
-    """E only (no derivatives) of a silhouette image, as :func:`ycbvss.refine.edge.edge_field` computes it."""
-    mag = gradient_magnitude(mask_f, sigma_px)
+def _blur_sobel(mask_f: np.ndarray, sigma_px: float) -> tuple[np.ndarray, np.ndarray]:
+    """Sobel derivatives (u, v; float32, unscaled) of ``mask_f`` Gaussian-blurred by ``sigma_px``
+    (at least 1 px): the blur :func:`_outward_normals` takes, and for sigma >= 1 px the one
+    :func:`ycbvss.refine.edge.gradient_magnitude` takes."""
+    g = cv2.GaussianBlur(mask_f, (0, 0), max(sigma_px, 1.0))
+    return cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3)
+
+
+def _edge_cost(mask_f: np.ndarray, sigma_px: float, sobel: tuple[np.ndarray, np.ndarray] | None = None) -> EdgeField:
+    """E only (no derivatives) of a silhouette image, as :func:`ycbvss.refine.edge.edge_field` computes it.
+    ``sobel``: :func:`_blur_sobel` of the same image and blur (sigma >= 1 px), reused instead of
+    blurring again (the same numbers)."""
+    if sobel is not None and sigma_px >= 1.0:
+        gx, gy = sobel[0] / 8.0, sobel[1] / 8.0            # gradient_magnitude's scaling, float32
+        mag = np.sqrt(gx * gx + gy * gy)
+    else:
+        mag = gradient_magnitude(mask_f, sigma_px)
     mx = float(mag.max())
     E = np.ones_like(mag) if mx <= 1e-6 else 1.0 - mag / mx
     return EdgeField(E[..., None], float(sigma_px))
 
 
-def _outward_normals(mask_f: np.ndarray, sigma_px: float, uv: np.ndarray) -> np.ndarray:
-    """Unit outward normals (N, 2) at uv of the Gaussian-blurred silhouette (the mask falls outward)."""
-    g = cv2.GaussianBlur(mask_f, (0, 0), max(sigma_px, 1.0))
-    gu = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3)
-    gv = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3)
+def _outward_normals(mask_f: np.ndarray, sigma_px: float, uv: np.ndarray,
+                     sobel: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Unit outward normals (N, 2) at uv of the Gaussian-blurred silhouette (the mask falls outward).
+    ``sobel``: :func:`_blur_sobel` (mask_f, sigma_px) when already computed."""
+    gu, gv = _blur_sobel(mask_f, sigma_px) if sobel is None else sobel
     grad = sample_bilinear(np.stack([gu, gv], -1), uv)[0]
     n = -grad
     nn = np.linalg.norm(n, axis=1, keepdims=True)
@@ -95,8 +109,9 @@ def match_contour_to_blur(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, 
         y0, x0, y1, x1 = _crop_box(out[sel], inst.shape, margin)
         mask_f = (inst[y0:y1, x0:x1] == lab).astype(np.float32) * 255.0
         p = out[sel] - (x0, y0)
-        n = _outward_normals(mask_f, sigma_px, p)
-        t = _minimum_along(_edge_cost(mask_f, sigma_px), p, n, half_px, step_px)
+        sobel = _blur_sobel(mask_f, sigma_px)                  # one blur for the normals and E
+        n = _outward_normals(mask_f, sigma_px, p, sobel)
+        t = _minimum_along(_edge_cost(mask_f, sigma_px, sobel), p, n, half_px, step_px)
         ok = (np.abs(t) < half_px - step_px) & np.any(n != 0.0, axis=1)
         out[sel[ok]] = out[sel[ok]] + t[ok, None] * n[ok]
     return out

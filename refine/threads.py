@@ -1,0 +1,31 @@
+"""One thread per numerical kernel while the refiner runs its own threads.
+
+The refiner parallelises over views (a pool of two threads beside the OpenGL thread, plus a flow
+thread, see :mod:`ycbvss.refine.bundle` and :mod:`ycbvss.refine.matching`). OpenBLAS and OpenCV
+each start their own worker threads per call on top of that: on 2 cores, BLAS products of a few
+thousand rows and small OpenCV filters then pay for thread start-up and for OpenBLAS's spinning
+workers without gaining any core. :func:`single_threaded_kernels` limits both to one thread for
+the duration of a ``with`` block and restores the previous settings after it. The results are
+the same (bench_refine's poses bit-identical; the BLAS products here are too small to be split).
+"""
+from __future__ import annotations
+
+from contextlib import contextmanager
+from typing import Iterator
+
+
+@contextmanager
+def single_threaded_kernels() -> Iterator[None]:
+    """BLAS (threadpoolctl) and OpenCV (``cv2.setNumThreads``) on one thread inside the block;
+    both restored on exit. Process-wide while it lasts: other threads' BLAS / OpenCV calls run
+    single-threaded too."""
+    import cv2
+    from threadpoolctl import threadpool_limits
+
+    n_cv = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            yield
+    finally:
+        cv2.setNumThreads(n_cv)
