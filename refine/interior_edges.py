@@ -31,15 +31,15 @@ def flat_at(normal: np.ndarray, instance: np.ndarray, uv: np.ndarray, max_turn_d
     u = np.clip(np.round(uv[:, 0]).astype(int), 0, W - 1)
     v = np.clip(np.round(uv[:, 1]).astype(int), 0, H - 1)
     n0, i0 = normal[v, u], instance[v, u]
-    cos_min = np.ones(len(u))
-    for dy in range(-radius_px, radius_px + 1):
-        for dx in range(-radius_px, radius_px + 1):
-            if dx == 0 and dy == 0:
-                continue
-            uu, vv = np.clip(u + dx, 0, W - 1), np.clip(v + dy, 0, H - 1)
-            same = instance[vv, uu] == i0
-            c = np.where(same, (normal[vv, uu] * n0).sum(axis=1), 1.0)
-            cos_min = np.minimum(cos_min, c)
+    d = np.arange(-radius_px, radius_px + 1)
+    dy, dx = (a.ravel() for a in np.meshgrid(d, d, indexing="ij"))
+    keep = (dx != 0) | (dy != 0)
+    dy, dx = dy[keep], dx[keep]
+    uu = np.clip(u[None, :] + dx[:, None], 0, W - 1)        # (neighbours, N), all gathered at once
+    vv = np.clip(v[None, :] + dy[:, None], 0, H - 1)
+    nb = normal[vv, uu]
+    dot = nb[..., 0] * n0[:, 0] + nb[..., 1] * n0[:, 1] + nb[..., 2] * n0[:, 2]
+    cos_min = np.minimum(np.where(instance[vv, uu] == i0, dot, 1.0).min(axis=0), 1.0)
     return cos_min >= np.cos(np.radians(max_turn_deg))
 
 
