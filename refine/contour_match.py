@@ -206,12 +206,14 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
     from scipy.ndimage import convolve1d
     step = (t >= 0).astype(np.float64)[None, :, None]
     ref = float(_peak_offset(convolve1d(step, box, axis=1, mode="nearest"), t, sig, half)[0])
-    lin_img = srgb_to_linear(image)
+    margin = int(np.ceil(reach)) + 6
+    # decoded only inside the box that holds every object's crop below (per-pixel work: the same values)
+    by0, bx0, by1, bx1 = _crop_box(uv, inst.shape, margin)
+    lin_img = srgb_to_linear(np.asarray(image)[by0:by1, bx0:bx1])
     lin_img = lin_img if (colour_edges and lin_img.ndim == 3) else lin_img.mean(axis=2, keepdims=True) \
         if lin_img.ndim == 3 else lin_img[..., None]
-    lin_tmpl = srgb_to_linear(colour_tmpl)
+    lin_tmpl = srgb_to_linear(np.asarray(colour_tmpl)[by0:by1, bx0:bx1])
     lin_tmpl = lin_tmpl if (colour_edges and lin_tmpl.ndim == 3) else lin_tmpl.mean(axis=2, keepdims=True)
-    margin = int(np.ceil(reach)) + 6
     inside_t, outside_t = t < 0, np.array([2.5, 3.0, 3.5])
     for lab in np.unique(labels):
         sel = np.flatnonzero(labels == lab)
@@ -219,8 +221,8 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
         m = inst[y0:y1, x0:x1] == lab
         if m.sum() < 20:
             continue
-        tm = lin_tmpl[y0:y1, x0:x1]
-        im = lin_img[y0:y1, x0:x1]
+        tm = lin_tmpl[y0 - by0:y1 - by0, x0 - bx0:x1 - bx0]
+        im = lin_img[y0 - by0:y1 - by0, x0 - bx0:x1 - bx0]
         inner = cv2.erode(m.astype(np.uint8), np.ones((7, 7), np.uint8)) > 0
         if inner.sum() < 10:
             inner = m
