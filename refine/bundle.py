@@ -413,20 +413,30 @@ class _Stage:
         self._t("render_s", time.perf_counter() - t0)
         return vr
 
-    def build_terms(self, fields: dict, renders: dict, recompute_matches: bool = True) -> list:
-        """The cost terms of one outer iteration from this iteration's template ``renders`` (view
-        index -> ViewRender) and the level's edge ``fields`` (view index -> EdgeField): f_edge,
-        alpha f_point (flow matches re-computed every ``match_every`` outer iterations, reused in
-        between) and beta f_t, each where enabled. A (view, object) pair takes part when at least
+    def build_terms(self, fields: dict, recompute_matches: bool = True) -> list:
+        """The cost terms of one outer iteration at the current poses, in the level's edge
+        ``fields`` (view index -> EdgeField): f_edge, alpha f_point (flow matches re-computed every
+        ``match_every`` outer iterations, reused in between) and beta f_t, each where enabled. The
+        views' templates are rendered here, one after the other on this (the GL) thread; each
+        view's f_edge candidates go to the thread pool as soon as its render is read, so the pool
+        works while the next view renders. A (view, object) pair takes part when at least
         ``min_visible_px`` of its template is visible (recorded in ``self.visible``)."""
         opt = self.opt
         terms = []
         self._lit = {}           # this iteration's lit templates (template_shading), shared by f_edge and f_point
-        vis = {(i, j) for i, vr in renders.items() for j in vr.obj_index
-               if int(vr.mask(j).sum()) >= opt.min_visible_px}
+        edge_opts = self._edge_options(fields) if opt.use_edge else None
+        renders: dict = {}        # view index -> ViewRender of this iteration
+        vis: set = set()
+        edge_jobs = []
+        for i in self.term_views:
+            vr = renders[i] = self.render(i)
+            seen = {(i, j) for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px}
+            vis |= seen
+            if edge_opts is not None and seen:
+                edge_jobs.append((i, vr, self._submit_edge_job(i, vr, edge_opts)))
         self.visible |= vis
         if opt.use_edge:
-            terms.append(self._edge_term(fields, renders, vis))
+            terms.append(self._edge_term(fields, edge_jobs, vis, edge_opts))
         if opt.use_point and opt.alpha > 0 and not recompute_matches and self._point_term is not None:
             terms.append(self._point_term)
         elif opt.use_point and opt.alpha > 0:
@@ -447,12 +457,11 @@ class _Stage:
             return None
         return next(iter(fields.values())).sigma_px
 
-    def _edge_term(self, fields: dict, renders: dict, vis: set) -> EdgeTerm:
-        """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
-        (view, object), drawn in view order from candidates computed on the thread pool."""
+    def _edge_options(self, fields: dict) -> dict:
+        """This level's options of f_edge's candidates: ``kw`` for :func:`view_edge_candidates`,
+        ``app`` (contour appearance from the image), ``lit`` (from the lit template) and ``dil``
+        (contour-dilation nuisance)."""
         pb, opt = self.pb, self.opt
-        t0 = time.perf_counter()
-        groups = []
         blur = self._blur_match_sigma(fields)
         app = (self.appearance and blur is not None
                and blur <= APPEARANCE_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
@@ -461,29 +470,38 @@ class _Stage:
         # information to pull a depth that starts centimetres off (paper init) into the basin
         dil = (opt.edge_dilation_k > 0.0
                and level_sigma <= DILATION_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
-        lit = app and self.shading
         sharp = self.min_sharpness if self.at_finest else 0.0
-        turn_gate = self._turn_gate()
-        kw = dict(creases=opt.edge_creases, interior_max_turn_deg=turn_gate, interior_min_sharpness=sharp,
+        kw = dict(creases=opt.edge_creases, interior_max_turn_deg=self._turn_gate(), interior_min_sharpness=sharp,
                   fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur, normals=dil)
-        # the lit template (fitted lighting) is made on the pool too, beside the view's candidates
-        jobs = [(i, vr, _view_pool().submit(_lit_edge_candidates, vr, pb.views[i].image if app else None,
-                                            self._lit.get(i), lit and vr.normal is not None, self._light.get(i), kw))
-                for i, vr in renders.items() if any((i, j) in vis for j in vr.obj_index)]
+        return {"kw": kw, "app": app, "lit": app and self.shading, "dil": dil}
+
+    def _submit_edge_job(self, i: int, vr: ViewRender, eo: dict):
+        """View i's f_edge candidates (and its lit template) on the thread pool: a Future of
+        :func:`_lit_edge_candidates`."""
+        return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] else None,
+                                   self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), eo["kw"])
+
+    def _edge_term(self, fields: dict, jobs: list, vis: set, eo: dict) -> EdgeTerm:
+        """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
+        (view, object), drawn in view order from the candidates of ``jobs`` ((view, render,
+        :meth:`_submit_edge_job` future) in view order)."""
+        pb, opt = self.pb, self.opt
+        t0 = time.perf_counter()
+        groups = []
         for i, vr, job in jobs:
             lit_color, light, cands = job.result()
             if lit_color is not None:
                 self._lit[i] = lit_color
             if light is not None:
                 self._light[i] = light
-            nrm: dict | None = {} if dil else None
+            nrm: dict | None = {} if eo["dil"] else None
             for j, X in select_edge_samples(vr, pb.views[i].K, cands, opt.n_edge_points, self.rng,
                                             normals=nrm).items():
                 if (i, j) in vis and len(X):
                     groups.append(EdgeGroup(i, j, X, nrm.get(j) if nrm is not None else None))
         sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
         term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
-                        curv_floor=opt.edge_curv_floor / sig, dilation_k=opt.edge_dilation_k if dil else 0.0)
+                        curv_floor=opt.edge_curv_floor / sig, dilation_k=opt.edge_dilation_k if eo["dil"] else 0.0)
         self._t("edge_sampling_s", time.perf_counter() - t0)
         return term
 
@@ -753,10 +771,9 @@ class _Stage:
             n_cap = n_outer + (opt.extra_iters if li == len(sigmas) - 1 else 0)
             prev_move, calm = None, 0
             for outer in range(n_cap):
-                renders = {i: self.render(i) for i in self.term_views}
-                self._pending.clear()     # what the coarse-move check left and was not taken
                 n_built += 1
-                terms = self.build_terms(fields, renders, recompute_matches=(n_built - 1) % max(opt.match_every, 1) == 0)
+                terms = self.build_terms(fields, recompute_matches=(n_built - 1) % max(opt.match_every, 1) == 0)
+                self._pending.clear()     # what the coarse-move check left and was not taken
                 terms = [t for t in terms if t.groups]
                 if not terms:
                     self.converged = True
