@@ -28,6 +28,11 @@ def add_view_args(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--dataset", required=True)
     ap.add_argument("--scenes", default="1,2,4,5,6,7")
     ap.add_argument("--frames", default="0,10,20,30", help="frame positions within each scene's rendered frames")
+    ap.add_argument("--supersample", type=int, default=1,
+                    help="templates' colour integrated over each pixel at N x N sub-pixels (RefineOptions.template_supersample)")
+    ap.add_argument("--images", default=None,
+                    help="read the frames' images from this BOP root instead (the same scenes re-rendered, e.g. "
+                         "with other Blender settings); all its frames are used")
 
 
 def gt_views(a: argparse.Namespace):
@@ -42,16 +47,16 @@ def gt_views(a: argparse.Namespace):
     models, _ = build_suite(a.dataset, root, "ycbv21", scene_ids=scene_ids)
     r = get_renderer()
     ensure_meshes(r, models)
+    ss = int(getattr(a, "supersample", 1))
+    other = getattr(a, "images", None)
     for sid in scene_ids:
-        sc = load_bop_scene(root / "test", sid, models)
-        for pos in [int(p) for p in a.frames.split(",")]:
-            if pos >= len(sc.frames):
-                continue
-            fr = sc.frames[pos]
+        sc = load_bop_scene((Path(other) if other else root) / "test", sid, models)
+        chosen = sc.frames if other else [sc.frames[int(p)] for p in a.frames.split(",") if int(p) < len(sc.frames)]
+        for fr in chosen:
             cam = fr.camera
             oids = [i.obj_id for i in fr.instances]
             vr = render_view(r, models, oids, cam.K, cam.width, cam.height,
-                             {j: i.T_m2c for j, i in enumerate(fr.instances)})
+                             {j: i.T_m2c for j, i in enumerate(fr.instances)}, supersample=ss)
             yield models, sid, fr, fr.load_rgb(), vr, oids
 
 
@@ -61,21 +66,17 @@ def gt_view_matches(vr, img: np.ndarray, lit: bool = False) -> tuple[list[int], 
     their (src, dst) matches). ``lit``: the template lit by the fitted lighting
     (``RefineOptions.template_shading``). Shared by ``bench_match_scale.py`` and
     ``bench_template_shading.py``."""
-    from dataclasses import replace
-
-    from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches
+    from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches_lit
     from ycbvss.refine.matching import min_eig_map
-    from ycbvss.refine.shading import lit_template
-    from ycbvss.refine.templates import composite, object_mask
+    from ycbvss.refine.templates import object_mask
 
     opt = RefineOptions()
     objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
-    y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
-    if lit:
-        vr = replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, img))
+    box = y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
     masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
-    matches = _view_matches(composite(vr, img, (y0, y1, x0, x1)), img[y0:y1, x0:x1], masks, opt.flow,
-                            min_eig_map(img)[y0:y1, x0:x1])
+    # as the refiner makes them (a supersampled render: the pixel-area template, see RefineOptions.template_supersample)
+    matches, _ = _view_matches_lit(vr, img, box, True if lit else None, None, masks, opt.flow,
+                                   min_eig_map(img)[y0:y1, x0:x1])
     return objs, [(a[: opt.n_matches], b[: opt.n_matches]) for a, b in matches]
 
 

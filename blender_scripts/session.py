@@ -57,6 +57,7 @@ class BlenderSession:
         self._corners_mm: dict[str, np.ndarray] = {}
         self._pool: dict[str, list] = {}
         self._settings_key = None
+        self._material_kind = "principled"
         self._lights = []
         self.warnings: list[str] = []
         cam = bpy.data.cameras.new("cam")
@@ -113,8 +114,18 @@ class BlenderSession:
 
     def configure(self, width: int = 640, height: int = 480, samples: int = 16, denoise: bool = True,
                   threads: int = 0, lights: list | None = None, world_strength: float | None = None,
-                  max_bounces: int = 3, **_ignored) -> None:
+                  max_bounces: int = 3, material: str = "principled", filter_width: float = 1.0,
+                  **_ignored) -> None:
+        """Render settings. ``material``: "principled" (the lit, glossy default) or "emission" (the
+        texture emitted as is: no lighting, a diagnostic of the image formation alone).
+        ``filter_width``: Cycles' pixel filter (px; 0.01 samples the pixel centres only)."""
         sc = self.scene
+        if material not in ("principled", "emission"):
+            raise ValueError(f"unknown material {material!r}")
+        if material != self._material_kind:
+            self._material_kind = material
+            self._mesh_specs.clear()          # rebuilt with the new material by the next set_meshes
+        sc.cycles.filter_width = float(filter_width)
         sc.cycles.max_bounces = int(max_bounces)
         sc.cycles.diffuse_bounces = min(2, int(max_bounces))
         sc.cycles.glossy_bounces = min(1, int(max_bounces))
@@ -247,8 +258,16 @@ class BlenderSession:
                 pass
         nt = mat.node_tree
         bsdf = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
-        bsdf.inputs["Roughness"].default_value = 0.55
-        bsdf.inputs["Specular IOR Level"].default_value = 0.35
+        if self._material_kind == "emission":
+            em = nt.nodes.new("ShaderNodeEmission")
+            em.inputs["Strength"].default_value = 1.0
+            out = next(n for n in nt.nodes if n.type == "OUTPUT_MATERIAL")
+            nt.links.new(em.outputs[0], out.inputs["Surface"])
+            bsdf, colour_in = em, "Color"      # the colour below goes to the emission
+        else:
+            colour_in = "Base Color"
+            bsdf.inputs["Roughness"].default_value = 0.55
+            bsdf.inputs["Specular IOR Level"].default_value = 0.35
         if tex_rgb is not None:
             if isinstance(tex_rgb, str):           # a texture file Blender can read directly
                 tex_path = Path(tex_rgb)
@@ -260,14 +279,14 @@ class BlenderSession:
             node = nt.nodes.new("ShaderNodeTexImage")
             node.image = img
             node.interpolation = "Linear"
-            nt.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
+            nt.links.new(node.outputs["Color"], bsdf.inputs[colour_in])
         elif has_vcol:
             node = nt.nodes.new("ShaderNodeVertexColor")
             node.layer_name = "Col"
-            nt.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
+            nt.links.new(node.outputs["Color"], bsdf.inputs[colour_in])
         else:
             g = _srgb_to_linear(np.array(GREY, np.float32))
-            bsdf.inputs["Base Color"].default_value = (float(g[0]), float(g[1]), float(g[2]), 1.0)
+            bsdf.inputs[colour_in].default_value = (float(g[0]), float(g[1]), float(g[2]), 1.0)
         return mat
 
     def _object(self, key: str, k: int):

@@ -148,6 +148,11 @@ class RefineOptions:
     # too far in all five views (0.52 -> 3.3 mm; an affine colour map in place of the per-channel
     # gain: 3.8 mm; cause not found), so edge_appearance stays off
     template_shading: bool | str = "narrow"
+    # > 1: f_point's flow template is integrated over each pixel's area at this many sub-pixels per
+    # axis, and its silhouette pixels mixed with the background by their coverage
+    # (refine.templates.area_color), as a camera forms an image; 1: sampled at the pixel centres.
+    # f_edge keeps the point-sampled colour
+    template_supersample: int = 1
     edge_dilation_k: float = 0.0      # > 0: a shared outward offset of each (view, object)'s contour samples is marginalised out of f_edge, its prior worth this many samples (refine.terms.EdgeTerm)
     # > 0: interior texture (Canny) edge samples only where the rendered normals turn less than this
     # within 2 px (refine.interior_edges: on rounded edges a scanned texture's baked shading and the
@@ -407,7 +412,7 @@ class _Stage:
             vr = self._pending.pop(i)[1]
         else:
             vr = render_view(self.renderer, self.models, pb.obj_ids, v.K, v.width, v.height, poses,
-                             back=self.opt.edge_rim_depth)
+                             back=self.opt.edge_rim_depth, supersample=self.opt.template_supersample)
         if keep:
             self._pending[i] = (poses, vr)
         self._t("render_s", time.perf_counter() - t0)
@@ -859,12 +864,17 @@ def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, in
     """:func:`_view_matches` of the template composited over the view's ``image`` in ``box``
     (y0, y1, x0, x1), and the lighting used. ``lit``: None, the unlit template; an array, that lit
     colour; True, the template lit by ``light`` (fitted to the image here when None)."""
+    area = vr.area_color is not None
+    if area:                   # a supersampled template: f_point's flow template is the pixel-area colour
+        vr = dc_replace(vr, color=vr.area_color)
+        if lit is not None:
+            lit = True         # a lit colour passed in is the point-sampled one's: light the area colour
     if lit is True:
         lit, light = _lit_colour(vr, image, light)
     if lit is not None:
         vr = dc_replace(vr, color=lit)
     y0, y1, x0, x1 = box
-    return _view_matches(composite(vr, image, box), image[y0:y1, x0:x1], masks, flow, dst_me), light
+    return _view_matches(composite(vr, image, box, area=area), image[y0:y1, x0:x1], masks, flow, dst_me), light
 
 
 def _view_matches(raw: np.ndarray, img: np.ndarray, masks: list[np.ndarray], flow: FlowOptions,

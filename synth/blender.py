@@ -99,7 +99,8 @@ def frame_seed(*parts) -> int:
     return int.from_bytes(h[:4], "little") & 0x7FFFFFFF
 
 
-_SETTING_KEYS = ("width", "height", "samples", "denoise", "lights", "world_strength", "max_bounces")
+_SETTING_KEYS = ("width", "height", "samples", "denoise", "lights", "world_strength", "max_bounces", "material",
+                 "filter_width")
 
 
 def run_parallel(workers: list[BlenderWorker], tasks: list, fn, on_done=None) -> list:

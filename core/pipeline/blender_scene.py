@@ -67,15 +67,17 @@ def blender_job(scene: ProceduralScene, models_dir: Path, work_dir: Path, sample
 def render_blender(scene: ProceduralScene, models_dir: str | Path, work_dir: str | Path, samples: int = 12,
                    denoise: bool = True, workers: int = 1, noise_sigma: float = 1.5, with_table: bool = False,
                    renderer=None, on_frame=None, lights: list | None = None,
-                   world_strength: float | None = None) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
+                   world_strength: float | None = None, **settings) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
     """Render every frame with Blender; yield ``(im_id, rgb uint8, depth_mm float32)`` in frame order.
 
     ``models_dir`` receives the BOP model files (the scene's models then point at them);
     ``work_dir`` the table mesh and Blender's EXR/PNG outputs. ``noise_sigma``: Gaussian sensor
     noise (8-bit units) added after encoding. ``on_frame()`` is called as Blender finishes each
     frame (all frames are path traced before the first one is yielded). ``lights`` /
-    ``world_strength``: see :func:`blender_job`."""
+    ``world_strength``: see :func:`blender_job`. ``settings``: further Blender session settings
+    (``material``, ``filter_width``: ``ycbvss.blender_scripts.session.BlenderSession.configure``)."""
     job = blender_job(scene, Path(models_dir), Path(work_dir), samples, denoise, with_table, lights, world_strength)
+    job.update(settings)
     results = render_job(job, workers=workers, on_done=(lambda _r: on_frame()) if on_frame else None)
     r = _renderer(scene, renderer)
     bg = srgb_u8_to_linear(np.asarray(scene.background_rgb, np.float64))
