@@ -151,8 +151,16 @@ class RefineOptions:
     # > 1: f_point's flow template is integrated over each pixel's area at this many sub-pixels per
     # axis, and its silhouette pixels mixed with the background by their coverage
     # (refine.templates.area_color), as a camera forms an image; 1: sampled at the pixel centres.
-    # f_edge keeps the point-sampled colour
-    template_supersample: int = 1
+    # f_edge keeps the point-sampled colour. Applied to the scenes whose keyframe baseline group is
+    # in ``supersample_groups`` ("" none, "narrow,medium,wide" all). Measured (2026-11-27, session 41,
+    # bench/results/ycbv21/README.md): at the exact GT of long scenes 1-3 (lit templates) the flow
+    # matches' scale -0.066 % -> -0.047 %, its rms per (view, object) 0.117 % -> 0.077 %; long clips
+    # 1-3 from the exact GT tx/ty/tz/R/PRJ 0.073/0.053/0.348/0.137/0.097 -> 0.070/0.049/0.260/0.123/
+    # 0.093 (held-out long-3 tz 0.39 -> 0.22 mm); medium clips (paper init, seeds 0 and 5) 0.169/0.169/
+    # 0.725/0.322/0.217 -> 0.167/0.166/0.713/0.335/0.215 (R 0.013 deg worse): wide only for now.
+    # Cost: the colour rendered again at f x f within the objects' box (+36 ms per 640x480 view at f = 2)
+    template_supersample: int = 2
+    supersample_groups: str = "wide"
     edge_dilation_k: float = 0.0      # > 0: a shared outward offset of each (view, object)'s contour samples is marginalised out of f_edge, its prior worth this many samples (refine.terms.EdgeTerm)
     # > 0: interior texture (Canny) edge samples only where the rendered normals turn less than this
     # within 2 px (refine.interior_edges: on rounded edges a scanned texture's baked shading and the
@@ -1588,6 +1596,9 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     if isinstance(opt.edge_rim_depth, str):      # resolved once per scene from the keyframes' group
         opt = dc_replace(opt, edge_rim_depth=group in _groups(opt.edge_rim_depth))
     stats["edge_rim_depth"] = bool(opt.edge_rim_depth)
+    if opt.template_supersample > 1 and group not in _groups(opt.supersample_groups):
+        opt = dc_replace(opt, template_supersample=1)
+    stats["template_supersample"] = int(opt.template_supersample)
     if group is None or group not in _groups(opt.bias_removal_groups):
         return opt
     stats["bias_removal"] = True
@@ -1697,7 +1708,10 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if opt.interior_sharpness_bundles not in ("narrow", "all"):
         raise YcbvssError(f"RefineOptions.interior_sharpness_bundles must be 'narrow' or 'all', got "
                           f"{opt.interior_sharpness_bundles!r}", where=f"scene {scene.scene_id}")
-    group_specs = {"bias_removal_groups": opt.bias_removal_groups}
+    group_specs = {"bias_removal_groups": opt.bias_removal_groups, "supersample_groups": opt.supersample_groups}
+    if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):
+        raise YcbvssError(f"RefineOptions.template_supersample must be an integer 1-8, got {opt.template_supersample!r}",
+                          where=f"scene {scene.scene_id}")
     if not isinstance(opt.edge_rim_depth, bool):
         group_specs["edge_rim_depth"] = opt.edge_rim_depth
     for name, spec in group_specs.items():

@@ -1,5 +1,6 @@
-"""RefineOptions.bias_removal_groups and edge_rim_depth: which scenes get BIAS_REMOVAL and the rim-depth
-lift of the contour samples (refine.bundle._scene_options)."""
+"""RefineOptions.bias_removal_groups, edge_rim_depth and supersample_groups: which scenes get
+BIAS_REMOVAL, the rim-depth lift of the contour samples and area-integrated f_point templates
+(refine.bundle._scene_options)."""
 from types import SimpleNamespace
 
 import numpy as np
@@ -37,7 +38,8 @@ WIDE, MEDIUM, NARROW = [0, 20, 40, 60], [0, 10, 20], [0, 3, 6]     # baselines 6
                                              ("", set()), ("narrow", {"narrow"})])
 def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
     known = np.ones(3, bool)
-    opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False)    # a bool: nothing else to resolve
+    # edge_rim_depth a bool, template_supersample 1: nothing else to resolve
+    opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1)
     for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
         stats: dict = {}
         got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
@@ -83,3 +85,26 @@ def test_the_default_lifts_contour_samples_at_the_rim_on_wide_scenes_only():
 def test_an_unknown_rim_depth_group_is_an_error_naming_the_option():
     with pytest.raises(YcbvssError, match="edge_rim_depth"):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(edge_rim_depth="long"))
+
+
+@pytest.mark.parametrize("spec, on", [("wide", {"wide"}), ("medium,wide", {"medium", "wide"}), ("", set()),
+                                      ("narrow,medium,wide", {"wide", "medium", "narrow"})])
+def test_template_supersample_is_resolved_per_scene_from_the_keyframes_baseline_group(spec, on):
+    known = np.ones(3, bool)
+    opt = RefineOptions(supersample_groups=spec, template_supersample=3)
+    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
+        stats: dict = {}
+        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+        assert got.template_supersample == (3 if name in on else 1)
+        assert stats["template_supersample"] == got.template_supersample
+    assert opt.template_supersample == 3                        # the caller's options untouched
+
+
+def test_the_default_supersamples_wide_scenes_at_2():
+    assert (RefineOptions().template_supersample, RefineOptions().supersample_groups) == (2, "wide")
+
+
+@pytest.mark.parametrize("bad", [0, 2.5, "2", 9])
+def test_a_bad_template_supersample_is_an_error_naming_the_option(bad):
+    with pytest.raises(YcbvssError, match="template_supersample"):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(template_supersample=bad))
