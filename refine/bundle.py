@@ -157,10 +157,13 @@ class RefineOptions:
     # matches' scale -0.066 % -> -0.047 %, its rms per (view, object) 0.117 % -> 0.077 %; long clips
     # 1-3 from the exact GT tx/ty/tz/R/PRJ 0.073/0.053/0.348/0.137/0.097 -> 0.070/0.049/0.260/0.123/
     # 0.093 (held-out long-3 tz 0.39 -> 0.22 mm); medium clips (paper init, seeds 0 and 5) 0.169/0.169/
-    # 0.725/0.322/0.217 -> 0.167/0.166/0.713/0.335/0.215 (R 0.013 deg worse): wide only for now.
-    # Cost: the colour rendered again at f x f within the objects' box (+36 ms per 640x480 view at f = 2)
+    # 0.725/0.322/0.217 -> 0.167/0.166/0.713/0.335/0.215 (R 0.013 deg worse, the rest better; objects
+    # meeting every medium target 10 -> 10 of 21); short clips (seeds 0 and 5) 0.239/0.314/1.352/0.629/
+    # 0.353 -> 0.211/0.266/1.236/0.557/0.306 (12 -> 12 of 21); long (paper init, seeds 0 and 5) better
+    # in every column. Cost: the colour rendered again at f x f within the objects' box (+36 ms per
+    # 640x480 view at f = 2)
     template_supersample: int = 2
-    supersample_groups: str = "wide"
+    supersample_groups: str = "narrow,medium,wide"
     edge_dilation_k: float = 0.0      # > 0: a shared outward offset of each (view, object)'s contour samples is marginalised out of f_edge, its prior worth this many samples (refine.terms.EdgeTerm)
     # > 0: interior texture (Canny) edge samples only where the rendered normals turn less than this
     # within 2 px (refine.interior_edges: on rounded edges a scanned texture's baked shading and the
