@@ -32,7 +32,7 @@ from .solver import SolverOptions, covariance, run_lm
 from .shading import lit_template, view_lighting
 from .threads import single_threaded_kernels
 from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
-                        render_view, select_edge_samples, view_edge_candidates)
+                        area_template, render_view, select_edge_samples, view_edge_candidates, with_area)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
@@ -411,19 +411,22 @@ class _Stage:
             self._norm[i] = normalize_for_flow(self.pb.views[i].image)
         return self._norm[i]
 
-    def render(self, i: int, keep: bool = False):
-        """View i's template render at the current poses (``keep``: also kept for the next call)."""
+    def render(self, i: int, keep: bool = False, area: bool = False):
+        """View i's template render at the current poses (``keep``: also kept for the next call;
+        ``area``: with the sub-pixel render of f_point's area-integrated template when
+        ``template_supersample`` > 1, rendered only for the iterations that match anew)."""
         pb = self.pb
         v = pb.views[i]
         t0 = time.perf_counter()
         poses = {j: pb.pose(i, j) for j in range(len(pb.obj_ids)) if pb.obj_known[j]}
         hit = self._pending.get(i)
+        f = self.opt.template_supersample if area else 1
         if hit is not None and hit[0].keys() == poses.keys() and all(np.array_equal(hit[0][j], T)
                                                                       for j, T in poses.items()):
-            vr = self._pending.pop(i)[1]
+            vr = with_area(self.renderer, self.models, pb.obj_ids, v.K, self._pending.pop(i)[1], poses, f)
         else:
             vr = render_view(self.renderer, self.models, pb.obj_ids, v.K, v.width, v.height, poses,
-                             back=self.opt.edge_rim_depth, supersample=self.opt.template_supersample)
+                             back=self.opt.edge_rim_depth, supersample=f)
         if keep:
             self._pending[i] = (poses, vr)
         self._t("render_s", time.perf_counter() - t0)
@@ -444,8 +447,10 @@ class _Stage:
         renders: dict = {}        # view index -> ViewRender of this iteration
         vis: set = set()
         edge_jobs = []
+        # f_point's area-integrated templates only where its matches are made anew
+        area = bool(opt.use_point and opt.alpha > 0 and (recompute_matches or self._point_term is None))
         for i in self.term_views:
-            vr = renders[i] = self.render(i)
+            vr = renders[i] = self.render(i, area=area)
             seen = {(i, j) for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px}
             vis |= seen
             if edge_opts is not None and seen:
@@ -875,7 +880,7 @@ def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, in
     """:func:`_view_matches` of the template composited over the view's ``image`` in ``box``
     (y0, y1, x0, x1), and the lighting used. ``lit``: None, the unlit template; an array, that lit
     colour; True, the template lit by ``light`` (fitted to the image here when None)."""
-    area = vr.area_color is not None
+    area = area_template(vr)
     if area:                   # a supersampled template: f_point's flow template is the pixel-area colour
         vr = dc_replace(vr, color=vr.area_color)
         if lit is not None:

@@ -57,6 +57,9 @@ class ViewRender:
     # point-sampled only. ``color`` stays point-sampled (f_edge's texture edges and contour appearance)
     area_color: np.ndarray | None = None
     coverage: np.ndarray | None = None
+    # the sub-pixel render they come from until :func:`area_template` averages it:
+    # ((y0, y1, x0, x1) box, f, (h f, w f, 3) uint8 colour, (h f, w f) bool hit)
+    area_src: tuple | None = None
 
     def label_of(self, j: int) -> int:
         return self.obj_index.index(j) + 1 if j in self.obj_index else -1
@@ -105,21 +108,45 @@ def area_color(renderer, items: list, K: np.ndarray, box: tuple[int, int, int, i
     Kc[1, 1] *= f
     h, w = y1 - y0, x1 - x0
     out = renderer.render(Kc, w * f, h * f, items, outputs=("instance", "color"))
-    lin = _decode_table()[out.color].reshape(h, f, w, f, 3)
-    hit = (out.instance > 0).reshape(h, f, w, f, 1).astype(np.float32)
+    return average_subpixels(out.color, out.instance > 0, f)
+
+
+def average_subpixels(color_hi: np.ndarray, hit_hi: np.ndarray, f: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`area_color`'s average of an (h f, w f) sub-pixel render: (h, w, 3) uint8 colour over
+    the sub-pixels that hit an object (linear light), (h, w) float32 coverage."""
+    h, w = color_hi.shape[0] // f, color_hi.shape[1] // f
+    lin = _decode_table()[color_hi].reshape(h, f, w, f, 3)
+    hit = hit_hi.reshape(h, f, w, f, 1).astype(np.float32)
     n = hit.sum(axis=(1, 3))
     avg = (lin * hit).sum(axis=(1, 3)) / np.maximum(n, 1.0)
     from .srgb import encode_u8
     return encode_u8(avg), (n[..., 0] / float(f * f)).astype(np.float32)
 
 
+def area_template(vr: "ViewRender") -> bool:
+    """Fill ``vr.area_color`` / ``vr.coverage`` from a supersampled render's sub-pixels (kept in
+    ``vr.area_src`` by :func:`render_view`) on first use, in the calling thread: the averaging runs
+    in f_point's pool job, not on the rendering thread. Returns whether ``vr`` has them."""
+    if vr.area_color is None and vr.area_src is not None:
+        (y0, y1, x0, x1), f, color_hi, hit_hi = vr.area_src
+        sub, c = average_subpixels(color_hi, hit_hi, f)
+        area = np.array(vr.color, copy=True)
+        hit = c > 0
+        area[y0:y1, x0:x1][hit] = sub[hit]
+        cov = np.zeros(vr.instance.shape, np.float32)
+        cov[y0:y1, x0:x1] = c
+        vr.area_color, vr.coverage, vr.area_src = area, cov, None
+    return vr.area_color is not None
+
+
 def render_view(renderer, models: dict, obj_ids: list[int], K: np.ndarray, width: int, height: int,
                 poses: dict[int, np.ndarray], back: bool = False, supersample: int = 1) -> ViewRender:
     """Render objects (index j -> pose) in front of the camera; others are skipped. ``back``: also
     the nearest back faces (``back_depth_mm`` / ``back_instance``, for the contour's rim depth).
-    ``supersample`` > 1: also the colour inside the objects' box integrated over each pixel's area
-    and the objects' coverage (:func:`area_color`; ``area_color``, ``coverage``); depth, instance,
-    normals and ``color`` stay point-sampled at the pixel centres."""
+    ``supersample`` > 1: also the objects' box rendered at f x f sub-pixels, for the colour
+    integrated over each pixel's area and the objects' coverage (``area_color``, ``coverage``,
+    filled by :func:`area_template` where they are used); depth, instance, normals and ``color``
+    stay point-sampled at the pixel centres."""
     items, used, P = [], [], []
     for j, T in poses.items():
         if not np.all(np.isfinite(T)) or T[2, 3] <= 10.0:
@@ -133,20 +160,46 @@ def render_view(renderer, models: dict, obj_ids: list[int], K: np.ndarray, width
                           np.zeros((height, width, 3), np.uint8), [], [])
     outs = ("depth", "instance", "color", "normal") + (("back_depth",) if back else ())
     out = renderer.render(K, width, height, items, outputs=outs)
-    area, cov = None, None
-    if supersample > 1 and np.any(out.instance > 0):
-        ys = np.flatnonzero((out.instance > 0).any(axis=1))
-        xs = np.flatnonzero((out.instance > 0).any(axis=0))
-        y0, y1 = max(int(ys[0]) - 1, 0), min(int(ys[-1]) + 2, height)
-        x0, x1 = max(int(xs[0]) - 1, 0), min(int(xs[-1]) + 2, width)
-        sub, c = area_color(renderer, items, K, (y0, y1, x0, x1), supersample)
-        area = np.array(out.color, copy=True)
-        hit = c > 0
-        area[y0:y1, x0:x1][hit] = sub[hit]
-        cov = np.zeros((height, width), np.float32)
-        cov[y0:y1, x0:x1] = c
+    src = _area_source(renderer, items, K, out.instance, supersample) if supersample > 1 else None
     return ViewRender(out.instance, out.depth_mm, out.color, P, used, out.normal_cam,
-                      out.back_depth_mm, out.back_instance, area, cov)
+                      out.back_depth_mm, out.back_instance, area_src=src)
+
+
+def _render_items(models: dict, obj_ids: list[int], poses: dict[int, np.ndarray]) -> list:
+    """(mesh key, pose) of the objects :func:`render_view` draws (finite poses in front of the camera)."""
+    return [(mesh_key(obj_ids[j], models[obj_ids[j]]), T) for j, T in poses.items()
+            if np.all(np.isfinite(T)) and T[2, 3] > 10.0]
+
+
+def _area_source(renderer, items: list, K: np.ndarray, instance: np.ndarray, f: int) -> tuple | None:
+    """The objects' box (of ``instance``, grown by 1 px) rendered at f x f sub-pixels: the
+    ``area_src`` of a :class:`ViewRender`, None when nothing is drawn."""
+    if not np.any(instance > 0):
+        return None
+    height, width = instance.shape
+    ys = np.flatnonzero((instance > 0).any(axis=1))
+    xs = np.flatnonzero((instance > 0).any(axis=0))
+    y0, y1 = max(int(ys[0]) - 1, 0), min(int(ys[-1]) + 2, height)
+    x0, x1 = max(int(xs[0]) - 1, 0), min(int(xs[-1]) + 2, width)
+    f = int(f)
+    Kc = np.array(K, np.float64, copy=True)
+    Kc[0, 2] = f * (Kc[0, 2] - x0) + (f - 1) / 2.0      # as in area_color
+    Kc[1, 2] = f * (Kc[1, 2] - y0) + (f - 1) / 2.0
+    Kc[0, 0] *= f
+    Kc[0, 1] *= f
+    Kc[1, 1] *= f
+    hi = renderer.render(Kc, (x1 - x0) * f, (y1 - y0) * f, items, outputs=("instance", "color"))
+    return (y0, y1, x0, x1), f, hi.color, hi.instance > 0
+
+
+def with_area(renderer, models: dict, obj_ids: list[int], K: np.ndarray, vr: "ViewRender",
+              poses: dict[int, np.ndarray], f: int) -> "ViewRender":
+    """``vr`` (a point-sampled :func:`render_view` at ``poses``) with the sub-pixel render a
+    supersampled one would carry: the same result as ``render_view(..., supersample=f)``."""
+    if f <= 1 or vr.area_src is not None or vr.area_color is not None:
+        return vr
+    from dataclasses import replace
+    return replace(vr, area_src=_area_source(renderer, _render_items(models, obj_ids, poses), K, vr.instance, f))
 
 
 def edge_samples(vr: ViewRender, j: int, K: np.ndarray, n_max: int, rng: np.random.Generator,

@@ -60,11 +60,12 @@ def scene(tmp_path_factory):
 
 
 def test_area_colour_equals_mean_of_larger_render(scene):
-    from ycbvss.refine.templates import render_view
+    from ycbvss.refine.templates import area_template, render_view
 
     r, models, oids, T, _ = scene
     f = 2
     vr = render_view(r, models, oids, K, W, H, {0: T}, supersample=f)
+    assert vr.area_color is None and area_template(vr)          # averaged on first use
     K2 = K.copy()
     K2[:2] *= f
     K2[0, 2] = f * K[0, 2] + (f - 1) / 2
@@ -83,10 +84,11 @@ def test_area_colour_equals_mean_of_larger_render(scene):
 def test_coverage_area_matches_projection(scene):
     import cv2
 
-    from ycbvss.refine.templates import render_view
+    from ycbvss.refine.templates import area_template, render_view
 
     r, models, oids, T, V = scene
     vr = render_view(r, models, oids, K, W, H, {0: T}, supersample=4)
+    area_template(vr)
     P = (K @ (V @ T[:3, :3].T + T[:3, 3]).T).T
     uv = (P[:, :2] / P[:, 2:]).astype(np.float32)
     area = float(cv2.contourArea(uv))
@@ -100,10 +102,11 @@ def test_coverage_area_matches_projection(scene):
 def test_composite_mixes_partial_pixels_in_linear_light(scene):
     from dataclasses import replace
 
-    from ycbvss.refine.templates import composite, render_view
+    from ycbvss.refine.templates import area_template, composite, render_view
 
     r, models, oids, T, _ = scene
     vr = render_view(r, models, oids, K, W, H, {0: T}, supersample=4)
+    area_template(vr)
     img = np.full((H, W, 3), 40, np.uint8)
     assert np.array_equal(composite(vr, img)[vr.instance > 0], vr.color[vr.instance > 0])   # area=False: point-sampled
     vr = replace(vr, color=vr.area_color)
