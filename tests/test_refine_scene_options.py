@@ -100,8 +100,8 @@ def test_template_supersample_is_resolved_per_scene_from_the_keyframes_baseline_
     assert opt.template_supersample == 3                        # the caller's options untouched
 
 
-def test_the_default_supersamples_every_scene_at_2():
-    assert (RefineOptions().template_supersample, RefineOptions().supersample_groups) == (2, "narrow,medium,wide")
+def test_the_default_supersamples_medium_and_wide_scenes_at_2():
+    assert (RefineOptions().template_supersample, RefineOptions().supersample_groups) == (2, "medium,wide")
 
 
 @pytest.mark.parametrize("bad", [0, 2.5, "2", 9])
