@@ -13,6 +13,8 @@ from ..render import Renderer
 from .contour_match import appearance_offsets, contour_normals, match_contour_to_blur
 from .edge import all_contour_points, all_interior_points, contour_points, interior_points, subsample
 from .jacobians import backproject_px
+from .srgb import encode_u8
+from .srgb import tables as srgb_tables
 
 _RENDERER = None
 
@@ -72,13 +74,24 @@ _SRGB_U8_TO_LINEAR255 = None
 
 
 def _decode_table() -> np.ndarray:
-    """(256,) float32: 8-bit sRGB code -> linear light in [0, 255] (IEC 61966-2-1)."""
+    """(256,) float32: 8-bit sRGB code -> linear light in [0, 255] (:mod:`ycbvss.refine.srgb`'s table)."""
     global _SRGB_U8_TO_LINEAR255
     if _SRGB_U8_TO_LINEAR255 is None:
-        x = np.arange(256, dtype=np.float64) / 255.0
-        _SRGB_U8_TO_LINEAR255 = (255.0 * np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
-                                 ).astype(np.float32)
+        _SRGB_U8_TO_LINEAR255 = (255.0 * srgb_tables()["decode_u8"]).astype(np.float32)
     return _SRGB_U8_TO_LINEAR255
+
+
+def _subpixel_K(K: np.ndarray, box: tuple[int, int, int, int], f: int) -> np.ndarray:
+    """Intrinsics of the crop ``box`` (y0, y1, x0, x1) rendered at f x f sub-pixels per pixel:
+    sub-pixel (a, b) of pixel (x, y) is centred at x - 1/2 + (a + 1/2) / f, i.e. x_hi = f x + (f - 1) / 2."""
+    y0, _, x0, _ = box
+    Kc = np.array(K, np.float64, copy=True)
+    Kc[0, 2] = f * (Kc[0, 2] - x0) + (f - 1) / 2.0
+    Kc[1, 2] = f * (Kc[1, 2] - y0) + (f - 1) / 2.0
+    Kc[0, 0] *= f
+    Kc[0, 1] *= f
+    Kc[1, 1] *= f
+    return Kc
 
 
 def area_color(renderer, items: list, K: np.ndarray, box: tuple[int, int, int, int], factor: int
@@ -94,20 +107,13 @@ def area_color(renderer, items: list, K: np.ndarray, box: tuple[int, int, int, i
     integrates over the pixel sees a perspective-foreshortened surface's texture shifted towards
     its far side (second order in the pixel size), and dense flow turns the difference into an
     apparent scale: at the exact GT of the suite's long scenes, Cycles images with the texture as
-    emission (no lighting) and its 1 px pixel filter read -0.031 % (128 samples, no denoiser)
-    smaller than the point-sampled template, -0.003 % against a 2 x 2 template; point-sampled
-    Cycles images (filter width 0.01) -0.0004 %."""
+    emission (no lighting) and its 1 px pixel filter read -0.032 % (128 samples, no denoiser)
+    smaller than the point-sampled template, -0.017 % against a 2 x 2 template (with the
+    silhouette mixed as in :func:`composite`), -0.008 % against 3 x 3; point-sampled Cycles images
+    (filter width 0.01) agree with the point-sampled template (``bench/bench_image_formation.py``)."""
     y0, y1, x0, x1 = box
     f = int(factor)
-    Kc = np.array(K, np.float64, copy=True)
-    # sub-pixel (a, b) of pixel (x, y) is centred at x - 1/2 + (a + 1/2) / f: x_hi = f x + (f - 1) / 2
-    Kc[0, 2] = f * (Kc[0, 2] - x0) + (f - 1) / 2.0
-    Kc[1, 2] = f * (Kc[1, 2] - y0) + (f - 1) / 2.0
-    Kc[0, 0] *= f
-    Kc[0, 1] *= f
-    Kc[1, 1] *= f
-    h, w = y1 - y0, x1 - x0
-    out = renderer.render(Kc, w * f, h * f, items, outputs=("instance", "color"))
+    out = renderer.render(_subpixel_K(K, box, f), (x1 - x0) * f, (y1 - y0) * f, items, outputs=("instance", "color"))
     return average_subpixels(out.color, out.instance > 0, f)
 
 
@@ -119,7 +125,6 @@ def average_subpixels(color_hi: np.ndarray, hit_hi: np.ndarray, f: int) -> tuple
     hit = hit_hi.reshape(h, f, w, f, 1).astype(np.float32)
     n = hit.sum(axis=(1, 3))
     avg = (lin * hit).sum(axis=(1, 3)) / np.maximum(n, 1.0)
-    from .srgb import encode_u8
     return encode_u8(avg), (n[..., 0] / float(f * f)).astype(np.float32)
 
 
@@ -182,14 +187,9 @@ def _area_source(renderer, items: list, K: np.ndarray, instance: np.ndarray, f: 
     y0, y1 = max(int(ys[0]) - 1, 0), min(int(ys[-1]) + 2, height)
     x0, x1 = max(int(xs[0]) - 1, 0), min(int(xs[-1]) + 2, width)
     f = int(f)
-    Kc = np.array(K, np.float64, copy=True)
-    Kc[0, 2] = f * (Kc[0, 2] - x0) + (f - 1) / 2.0      # as in area_color
-    Kc[1, 2] = f * (Kc[1, 2] - y0) + (f - 1) / 2.0
-    Kc[0, 0] *= f
-    Kc[0, 1] *= f
-    Kc[1, 1] *= f
-    hi = renderer.render(Kc, (x1 - x0) * f, (y1 - y0) * f, items, outputs=("instance", "color"))
-    return (y0, y1, x0, x1), f, hi.color, hi.instance > 0
+    box = (y0, y1, x0, x1)
+    hi = renderer.render(_subpixel_K(K, box, f), (x1 - x0) * f, (y1 - y0) * f, items, outputs=("instance", "color"))
+    return box, f, hi.color, hi.instance > 0
 
 
 def with_area(renderer, models: dict, obj_ids: list[int], K: np.ndarray, vr: "ViewRender",
@@ -319,23 +319,22 @@ def composite(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int] 
     if not area or vr.coverage is None:
         np.copyto(out, vr.color[y0:y1, x0:x1], where=(vr.instance[y0:y1, x0:x1] > 0)[..., None])
         return out
-    # area-integrated template: a partly covered pixel mixes the object's colour with the image's
-    # (the background's best estimate there) in linear light, as the camera mixes them
+    # area-integrated template: a partly covered pixel mixes the object's colour with the background
+    # in linear light by its coverage, as the camera mixes them
     a = vr.coverage[y0:y1, x0:x1]
     np.copyto(out, vr.color[y0:y1, x0:x1], where=(a >= 1.0)[..., None])
     part = (a > 0.0) & (a < 1.0)
     if part.any():
-        from .srgb import encode_u8
         dec = _decode_table()
         # the background under a partly covered pixel: the mean of the uncovered pixels within 2 px
-        # (the image's own value there already holds part of the object)
+        # (the image's own value there already holds part of the object); its own value without any
         free = (a <= 0.0).astype(np.float32)
         lin = dec[out]
-        num = cv2.boxFilter(lin * free[..., None], -1, (5, 5), normalize=False)
-        den = cv2.boxFilter(free, -1, (5, 5), normalize=False)[..., None]
-        bg = np.where(den > 0, num / np.maximum(den, 1e-6), lin)
+        num = cv2.boxFilter(lin * free[..., None], -1, (5, 5), normalize=False)[part]
+        den = cv2.boxFilter(free, -1, (5, 5), normalize=False)[part][:, None]
+        bg = np.where(den > 0, num / np.maximum(den, 1e-6), lin[part])
         w = a[part][:, None]
-        out[part] = encode_u8(w * dec[vr.color[y0:y1, x0:x1][part]] + (1.0 - w) * bg[part])
+        out[part] = encode_u8(w * dec[vr.color[y0:y1, x0:x1][part]] + (1.0 - w) * bg)
     return out
 
 
