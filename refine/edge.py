@@ -379,13 +379,17 @@ def _labels_box(inst: np.ndarray, margin_px: int) -> tuple[int, int, int, int] |
 
 
 def all_contour_points(inst: np.ndarray, depth: np.ndarray, back_depth: np.ndarray | None = None,
-                       back_inst: np.ndarray | None = None, max_chord_mm: float = MAX_RIM_CHORD_MM
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       back_inst: np.ndarray | None = None, max_chord_mm: float = MAX_RIM_CHORD_MM,
+                       contact_mm: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`contour_points` for every label at once: uv (N, 2), depth (N,), label (N,).
 
     With ``back_depth`` / ``back_inst`` (the nearest back faces, see
     :attr:`ycbvss.render.RenderOutput.back_depth_mm`) the depth of a contour sample is the rim's
-    (:func:`rim_depth`), not the depth of the surface at the contour pixel's centre."""
+    (:func:`rim_depth`), not the depth of the surface at the contour pixel's centre.
+
+    ``contact_mm`` > 0: a neighbour of another object makes a contour only when its surface lies at
+    least that far behind (mm); nearer, the two surfaces touch (an object resting on another), and
+    the image's edge there is the contact shadow's, not the silhouette's. 0: any farther surface."""
     box = _labels_box(inst, 1)
     if box is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
@@ -400,7 +404,8 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray, back_depth: np.ndarr
     for dv, du in _N4:
         ni = pad_i[1 + dv:1 + dv + h, 1 + du:1 + du + w]
         nd = pad_d[1 + dv:1 + dv + h, 1 + du:1 + du + w]
-        edge = mc & (ni != ic) & (ni != -1) & ((ni == 0) | (nd > dc))
+        far = (nd > dc) if contact_mm <= 0.0 else (nd - dc >= contact_mm)
+        edge = mc & (ni != ic) & (ni != -1) & ((ni == 0) | far)
         is_c |= edge
         edges.append(edge)
     if y0 == 0:

@@ -241,7 +241,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          fold_min_angle_deg: float = 25.0, blur_sigma_px: float | None = None,
                          image: np.ndarray | None = None, normals: bool = False,
                          appearance_color: np.ndarray | None = None,
-                         interior_max_turn_deg: float = 0.0, interior_min_sharpness: float = 0.0) -> EdgeCandidates:
+                         interior_max_turn_deg: float = 0.0, interior_min_sharpness: float = 0.0,
+                         contact_mm: float = 0.0) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -257,8 +258,11 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     texture (Canny) candidates only where the surface is flat at the pixel scale
     (:func:`ycbvss.refine.interior_edges.flat_at`; needs ``vr.normal``); crease and self-occlusion
     candidates are kept. ``interior_min_sharpness`` > 0: interior texture candidates only where
-    the template's edge is sharp (:func:`ycbvss.refine.interior_edges.sharp_at`)."""
-    uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance)
+    the template's edge is sharp (:func:`ycbvss.refine.interior_edges.sharp_at`). ``contact_mm`` > 0:
+    no contour samples where another object's surface lies less than that far behind (contact
+    lines, see :func:`ycbvss.refine.edge.all_contour_points`)."""
+    uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
+                                        contact_mm=contact_mm)
     if blur_sigma_px is not None:
         geo = uv_c
         uv_c = match_contour_to_blur(uv_c, l_c, vr.instance, blur_sigma_px)
