@@ -110,7 +110,7 @@ def test_a_bad_template_supersample_is_an_error_naming_the_option(bad):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(template_supersample=bad))
 
 
-@pytest.mark.parametrize("bad", [-1.0, float("nan"), "10", None])
+@pytest.mark.parametrize("bad", [-1.0, float("nan"), "10", None, True])
 def test_a_bad_edge_contact_mm_is_an_error_naming_the_option(bad):
     with pytest.raises(YcbvssError, match="edge_contact_mm"):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(edge_contact_mm=bad))
