@@ -160,7 +160,7 @@ class RefineOptions:
     template_shading: bool | str = "narrow"
     # > 1: f_point's flow template is integrated over each pixel's area at this many sub-pixels per
     # axis, and its silhouette pixels mixed with the background by their coverage
-    # (refine.templates.area_color), as a camera forms an image; 1: sampled at the pixel centres.
+    # (refine.templates.average_subpixels), as a camera forms an image; 1: sampled at the pixel centres.
     # f_edge keeps the point-sampled colour. Applied to the scenes whose keyframe baseline group is
     # in ``supersample_groups`` ("" none, "narrow,medium,wide" all). Measured (2026-11-27, session 41,
     # bench/results/ycbv21/README.md): at the exact GT of long scenes 1-3 (lit templates) the flow

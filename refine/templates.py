@@ -54,7 +54,7 @@ class ViewRender:
     normal: np.ndarray | None = None
     back_depth_mm: np.ndarray | None = None
     back_instance: np.ndarray | None = None
-    # supersampled templates (:func:`area_color`): the colour integrated over each pixel's area
+    # supersampled templates (:func:`average_subpixels`): the colour integrated over each pixel's area
     # (H, W, 3) uint8 and the share of each pixel's area an object covers (H, W) float32; None:
     # point-sampled only. ``color`` stays point-sampled (f_edge's texture edges and contour appearance)
     area_color: np.ndarray | None = None
@@ -94,14 +94,13 @@ def _subpixel_K(K: np.ndarray, box: tuple[int, int, int, int], f: int) -> np.nda
     return Kc
 
 
-def area_color(renderer, items: list, K: np.ndarray, box: tuple[int, int, int, int], factor: int
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """Template colour of the crop ``box`` (y0, y1, x0, x1) integrated over each pixel's area, as a
-    camera's (and Blender Cycles' pixel filter) forms it: rendered at ``factor`` x ``factor``
-    sub-pixels, averaged in linear light over the sub-pixels that hit an object (a pixel on the
-    silhouette keeps the object's colour; the background is composited elsewhere), sRGB-encoded.
-    Returns ((y1 - y0, x1 - x0, 3) uint8, (y1 - y0, x1 - x0) float32 coverage: the share of the
-    pixel's sub-pixels that hit an object).
+def average_subpixels(color_hi: np.ndarray, hit_hi: np.ndarray, f: int) -> tuple[np.ndarray, np.ndarray]:
+    """Template colour integrated over each pixel's area, as a camera's (and Blender Cycles' pixel
+    filter) forms it, from an (h f, w f) render at f x f sub-pixels per pixel (``color_hi`` uint8
+    sRGB, ``hit_hi`` bool): averaged in linear light over the sub-pixels that hit an object (a pixel
+    on the silhouette keeps the object's colour; :func:`composite` mixes in the background),
+    sRGB-encoded. Returns ((h, w, 3) uint8, (h, w) float32 coverage: the share of the pixel's
+    sub-pixels that hit an object).
 
     Why: the fast renderer samples the texture at the pixel centre (mipmapped); an image that
     integrates over the pixel sees a perspective-foreshortened surface's texture shifted towards
@@ -111,15 +110,6 @@ def area_color(renderer, items: list, K: np.ndarray, box: tuple[int, int, int, i
     smaller than the point-sampled template, -0.017 % against a 2 x 2 template (with the
     silhouette mixed as in :func:`composite`), -0.008 % against 3 x 3; point-sampled Cycles images
     (filter width 0.01) agree with the point-sampled template (``bench/bench_image_formation.py``)."""
-    y0, y1, x0, x1 = box
-    f = int(factor)
-    out = renderer.render(_subpixel_K(K, box, f), (x1 - x0) * f, (y1 - y0) * f, items, outputs=("instance", "color"))
-    return average_subpixels(out.color, out.instance > 0, f)
-
-
-def average_subpixels(color_hi: np.ndarray, hit_hi: np.ndarray, f: int) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`area_color`'s average of an (h f, w f) sub-pixel render: (h, w, 3) uint8 colour over
-    the sub-pixels that hit an object (linear light), (h, w) float32 coverage."""
     h, w = color_hi.shape[0] // f, color_hi.shape[1] // f
     lin = _decode_table()[color_hi].reshape(h, f, w, f, 3)
     hit = hit_hi.reshape(h, f, w, f, 1).astype(np.float32)
@@ -331,7 +321,7 @@ def composite(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int] 
     if part.any():
         dec = _decode_table()
         # the background under a partly covered pixel: the mean of the uncovered pixels within 2 px
-        # (the image's own value there already holds part of the object); its own value without any
+        # (the image's own value there already holds part of the object); with none within 2 px, its own
         free = (a <= 0.0).astype(np.float32)
         lin = dec[out]
         num = cv2.boxFilter(lin * free[..., None], -1, (5, 5), normalize=False)[part]

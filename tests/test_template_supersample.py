@@ -1,4 +1,4 @@
-"""Area-integrated templates (``RefineOptions.template_supersample``, ``refine.templates.area_color``).
+"""Area-integrated templates (``RefineOptions.template_supersample``, ``refine.templates.average_subpixels``).
 
 A camera integrates light over each pixel's area; the fast renderer samples at the pixel centre.
 These unit tests check the mechanics with the fast renderer alone (no accuracy claim):
