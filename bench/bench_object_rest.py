@@ -32,6 +32,7 @@ def _overlay(img: np.ndarray, K: np.ndarray, mesh_key, poses: list, box: tuple, 
     import cv2
 
     from ycbvss.refine.templates import get_renderer
+    from ycbvss.viz import contour_overlay
 
     x, y, w, h = box
     big = cv2.resize(np.ascontiguousarray(img[y:y + h, x:x + w]), None, fx=zoom, fy=zoom,
@@ -41,11 +42,8 @@ def _overlay(img: np.ndarray, K: np.ndarray, mesh_key, poses: list, box: tuple, 
     Kz[1, 2] = (K[1, 2] - y + 0.5) * zoom - 0.5
     Kz[:2, :2] *= zoom
     r = get_renderer()
-    for T, col in zip(poses, ((0, 255, 0), (255, 0, 0))):
-        d = r.render(Kz, w * zoom, h * zoom, [(mesh_key, T)], outputs=("depth",)).depth_mm
-        cs, _ = cv2.findContours((d > 0).astype(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
-        cv2.drawContours(big, cs, -1, col, 1)
-    return big
+    masks = [r.render(Kz, w * zoom, h * zoom, [(mesh_key, T)], outputs=("depth",)).depth_mm > 0 for T in poses]
+    return contour_overlay(big, masks, colors=[(0, 255, 0), (255, 0, 0)][:len(masks)])
 
 
 def main() -> None:
