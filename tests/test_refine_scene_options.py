@@ -114,3 +114,10 @@ def test_a_bad_template_supersample_is_an_error_naming_the_option(bad):
 def test_a_bad_edge_contact_mm_is_an_error_naming_the_option(bad):
     with pytest.raises(YcbvssError, match="edge_contact_mm"):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(edge_contact_mm=bad))
+
+
+@pytest.mark.parametrize("name", ["contact_weight", "contact_tol_mm"])
+@pytest.mark.parametrize("bad", [-0.5, float("inf"), "1", None, False])
+def test_a_bad_contact_option_is_an_error_naming_it(name, bad):
+    with pytest.raises(YcbvssError, match=name):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**{name: bad}))

@@ -41,6 +41,14 @@ def register(sub) -> None:
     p.add_argument("--alpha", type=float, default=None, help="weight of the point term (default 5)")
     p.add_argument("--beta", type=float, default=None, help="weight of the temporal term (default 1)")
     p.add_argument("--max-iters", type=int, default=None, help="outer (re-render) iterations per level")
+    p.add_argument("--edge-contact-mm", type=float, default=None,
+                   help="skip the edge term's contour samples at contact lines, where another object's surface lies "
+                        "less than this far (mm) behind the silhouette; for objects standing on others, whose "
+                        "contact shadow's edge pulls them (default 0: off; 10 with --contact-weight 1 is what "
+                        "bench/results/ycbv21/README.md measures)")
+    p.add_argument("--contact-weight", type=float, default=None,
+                   help="weight of the non-penetration term (per mm^2 of depth inside another object, per point "
+                        "and view; default 0: off)")
     p.set_defaults(func=_run)
 
 
@@ -85,7 +93,7 @@ def _run(args: argparse.Namespace) -> int:
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)
     opt = RefineOptions(use_edge=not args.no_edge, use_point=not args.no_point, use_temporal=not args.no_temporal,
                         keyframe_step=args.keyframe_step, fix_cameras=args.known_cameras)
-    for k in ("alpha", "beta", "max_iters"):
+    for k in ("alpha", "beta", "max_iters", "edge_contact_mm", "contact_weight"):
         if getattr(args, k) is not None:
             setattr(opt, k, getattr(args, k))
     if not (opt.use_edge or opt.use_point):

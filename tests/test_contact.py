@@ -1,0 +1,75 @@
+"""refine.contact: signed distance, Jacobians against finite differences, and a solve that pushes a
+box out of the box it was sunk into (and leaves a touching one where it is)."""
+import numpy as np
+import pytest
+import trimesh
+
+from ycbvss.geometry.se3 import exp_se3
+from ycbvss.refine.contact import ContactTerm, contact_groups, contact_surface
+from ycbvss.refine.problem import BundleProblem, View
+from ycbvss.refine.solver import SolverOptions, assemble, run_lm
+
+
+def _problem(T_small: np.ndarray, free=(False, True)) -> tuple[BundleProblem, ContactTerm]:
+    base = trimesh.creation.box(extents=(100.0, 100.0, 100.0))      # top face at z = 50 mm
+    small = trimesh.creation.box(extents=(40.0, 40.0, 40.0))
+    surfaces = [contact_surface(base), contact_surface(small)]
+    view = View(0, np.array([[600.0, 0, 320], [0, 600.0, 240], [0, 0, 1]]), 640, 480)
+    pb = BundleProblem([view], [1, 2], np.eye(4)[None], np.stack([np.eye(4), T_small]),
+                       cam_free=np.zeros(1, bool), obj_free=np.array(free))
+    term = ContactTerm(surfaces, contact_groups(pb, surfaces, [s.points[::4] for s in surfaces]), weight=1.0, tol_mm=1.0)
+    return pb, term
+
+
+def _at(z_mm: float, yaw_deg: float = 10.0) -> np.ndarray:
+    T = exp_se3(np.array([5.0, -8.0, 0.0, 0.0, 0.0, np.radians(yaw_deg)]))
+    T[2, 3] = z_mm
+    return T
+
+
+def test_signed_distance_of_a_box_is_exact_on_its_faces():
+    s = contact_surface(trimesh.creation.box(extents=(100.0, 100.0, 100.0)))
+    d, n = s.signed_distance(np.array([[0.0, 0.0, 47.0], [10.0, -5.0, 53.5], [0.0, 44.0, 0.0]]))
+    assert np.allclose(d, [-3.0, 3.5, -6.0], atol=1e-9)
+    assert np.allclose(n[0], [0, 0, 1]) and np.allclose(n[2], [0, 1, 0])
+
+
+def test_gradient_matches_finite_differences():
+    pb, term = _problem(_at(70.0 - 6.0), free=(True, True))     # the small box 6 mm into the big one
+    c0, lins = term.linearize(pb)
+    assert c0 > 0 and np.isclose(c0, term.cost(pb))
+    _, g = assemble(pb.n_blocks, lins)
+    eps = 1e-5
+    num = np.zeros_like(g)
+    for q in range(len(g)):
+        st = pb.state()
+        d = np.zeros_like(g)
+        d[q] = eps
+        pb.apply_step(d)
+        cp = term.cost(pb)
+        pb.set_state(st)
+        pb.apply_step(-d)
+        cm = term.cost(pb)
+        pb.set_state(st)
+        num[q] = (cp - cm) / (2 * eps)
+    assert np.allclose(g, num, rtol=1e-4, atol=1e-6 * np.abs(num).max())
+
+
+def test_solve_pushes_a_sunk_box_out_and_keeps_a_touching_one():
+    pb, term = _problem(_at(70.0 - 12.0))          # 12 mm inside the base
+    run_lm(pb, [term], SolverOptions(max_iters=30))
+    z = pb.T_m[1][2, 3]
+    assert 70.0 - 1.0 - 0.05 <= z <= 70.0 - 0.9         # out to the tolerance (1 mm), not beyond
+    assert np.allclose(pb.T_m[0], np.eye(4))                # the fixed base has not moved
+
+    pb, term = _problem(_at(70.0 - 0.5))                      # touching, 0.5 mm in: within the tolerance
+    T0 = pb.T_m.copy()
+    c, lins = term.linearize(pb)
+    assert c == 0.0 and not lins
+    run_lm(pb, [term], SolverOptions(max_iters=5))
+    assert np.array_equal(pb.T_m, T0)
+
+
+def test_far_objects_form_no_pairs():
+    pb, term = _problem(_at(400.0))
+    assert term.groups == []
