@@ -73,3 +73,28 @@ def test_solve_pushes_a_sunk_box_out_and_keeps_a_touching_one():
 def test_far_objects_form_no_pairs():
     pb, term = _problem(_at(400.0))
     assert term.groups == []
+
+
+def test_real_scans_no_false_inside_and_solid_interiors_found(ycbv_root):
+    """On the 21 YCB-V scans (non-watertight textured meshes, some faces flipped): points 2 mm outside
+    the surface along its normal almost never read inside (the nearest-8 vote; measured max 0.17 %,
+    the master chef can), points 2 mm inside the solid boxes and bottles almost always do (measured
+    >= 99.5 %). Thin-walled objects (bowl, mug) are left out of the second check: 2 mm inside their
+    walls is through them."""
+    from ycbvss.io.ycbv import load_ycbv_models
+
+    models = load_ycbv_models(ycbv_root)
+    assert len(models) == 21
+    rng = np.random.default_rng(3)
+    solid = {"003_cracker_box", "004_sugar_box", "006_mustard_bottle", "008_pudding_box", "009_gelatin_box",
+             "011_banana", "036_wood_block"}
+    assert solid <= {m.name for m in models.values()}
+    for o, m in models.items():
+        s = contact_surface(m.mesh)
+        i = rng.choice(len(s.points), 2000, replace=False)
+        d_out, _ = s.signed_distance(s.points[i] + 2.0 * s.normals[i])
+        assert np.mean(d_out < -0.5) <= 0.005, m.name
+        assert np.median(np.abs(d_out - 2.0)) < 0.05, m.name          # mm: exact off flat patches
+        if m.name in solid:
+            d_in, _ = s.signed_distance(s.points[i] - 2.0 * s.normals[i])
+            assert np.mean(d_in < -0.5) >= 0.98, m.name
