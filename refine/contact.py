@@ -53,13 +53,17 @@ class ContactSurface:
         The nearest sample's plane alone misjudges points off a convex edge with an overhang (the
         rim of the potted meat can's lid faces down: a box standing 20 mm beside and above it read
         4 mm inside)."""
-        _, idx = self.tree.query(Y, k=k)
-        idx = idx.reshape(len(Y), -1)
-        dk = np.einsum("mkj,mkj->mk", Y[:, None, :] - self.points[idx], self.normals[idx])
-        n = self.normals[idx[:, 0]]
-        d = dk[:, 0]
-        behind = (dk < 0).mean(axis=1) >= inside_share
-        return np.where((d < 0) & ~behind, 0.0, d), n
+        Y = np.asarray(Y, np.float64).reshape(-1, 3)
+        _, i0 = self.tree.query(Y)
+        n = self.normals[i0]
+        d = np.einsum("ij,ij->i", Y - self.points[i0], n)
+        neg = np.flatnonzero(d < 0)          # the vote only where the nearest plane says inside
+        if len(neg):
+            _, idx = self.tree.query(Y[neg], k=k)
+            idx = idx.reshape(len(neg), -1)
+            dk = np.einsum("mkj,mkj->mk", Y[neg][:, None, :] - self.points[idx], self.normals[idx])
+            d[neg[(dk < 0).mean(axis=1) < inside_share]] = 0.0
+        return d, n
 
 
 _SURFACES: dict[int, tuple[object, ContactSurface]] = {}
