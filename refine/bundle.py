@@ -1759,12 +1759,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):
         raise YcbvssError(f"RefineOptions.template_supersample must be an integer 1-8, got {opt.template_supersample!r}",
                           where=f"scene {scene.scene_id}")
-    if not (isinstance(opt.edge_contact_mm, (int, float, np.floating)) and not isinstance(opt.edge_contact_mm, bool)
-            and np.isfinite(opt.edge_contact_mm)
-            and opt.edge_contact_mm >= 0.0):
-        raise YcbvssError(f"RefineOptions.edge_contact_mm must be a finite number >= 0, got {opt.edge_contact_mm!r}",
-                          where=f"scene {scene.scene_id}")
-    for name in ("contact_weight", "contact_tol_mm"):
+    for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):
             raise YcbvssError(f"RefineOptions.{name} must be a finite number >= 0, got {v!r}", where=f"scene {scene.scene_id}")
