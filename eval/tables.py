@@ -83,16 +83,21 @@ def error_table(per_object: dict, names: dict | None = None, textureless: dict |
     return t
 
 
-def _bold_min(rows: list[Row]) -> None:
+def _bold_min(rows: list[Row], digits: int | None = None) -> None:
+    """Bold each column's minimum; with ``digits``, compared as printed at that precision (ties
+    bolded, as the paper does), the values themselves kept unrounded (the CSV carries them)."""
+    def key(v: float) -> float:
+        return v if digits is None else round(v, digits)
+
     ncol = max((len(r.values) for r in rows), default=0)
     for c in range(ncol):
-        vals = [r.values[c] for r in rows if c < len(r.values) and r.values[c] is not None]
+        vals = [key(r.values[c]) for r in rows if c < len(r.values) and r.values[c] is not None]
         if not vals:
             continue
         best = min(vals)
         for r in rows:
             r.bold = r.bold or [False] * len(r.values)
-            r.bold[c] = r.values[c] is not None and abs(r.values[c] - best) < 1e-12
+            r.bold[c] = r.values[c] is not None and abs(key(r.values[c]) - best) < 1e-12
     return None
 
 
@@ -103,10 +108,7 @@ def ablation_table(configs: list[tuple[str, dict]], bold_best: bool = True, capt
               caption=caption, digits=digits)
     t.rows = [Row(label, [_get(vals, k) for k in ERROR_COLS]) for label, vals in configs]
     if bold_best:
-        # compare the values as printed (the paper bolds ties at the shown precision)
-        for r in t.rows:
-            r.values = [None if v is None else round(v, digits) for v in r.values]
-        _bold_min(t.rows)
+        _bold_min(t.rows, digits)
     return t
 
 

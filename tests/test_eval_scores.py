@@ -118,6 +118,13 @@ def test_tables_render_paper_layouts():
     md = to_markdown(ab)
     assert "| using all | **0.28** | **0.22** | **0.85** | **0.23** | **0.46** |" in md
     assert r"\textbf{0.85}" in to_latex(ab)
+    # ties are judged as printed (both 0.13 bold at 2 digits), but the CSV keeps the measured values
+    tie = ablation_table([("w/o f_t", {"tx_mm": 0.0141, "ty_mm": 0.02, "tz_mm": 0.1262, "r_deg": 0.05, "prj_px": 0.05}),
+                          ("using all", {"tx_mm": 0.0162, "ty_mm": 0.02, "tz_mm": 0.1314, "r_deg": 0.05, "prj_px": 0.05})])
+    assert "| using all | 0.02 | **0.02** | **0.13** |" in to_markdown(tie)
+    assert "| w/o f_t | **0.01** | **0.02** | **0.13** |" in to_markdown(tie)
+    tie_rows = list(csv.reader(io.StringIO(to_csv(tie))))
+    assert abs(float(tie_rows[2][3]) - 0.1314) < 1e-9 and abs(float(tie_rows[1][1]) - 0.0141) < 1e-9
 
 
 def test_options_validation():
