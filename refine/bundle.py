@@ -34,6 +34,8 @@ from .shading import lit_template, view_lighting
 from .threads import single_threaded_kernels
 from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
                         area_template, render_view, select_edge_samples, view_edge_candidates, with_area)
+from .table import (TableRotation, TableRotationTerm, fit_table_plane, plane_depth_mm, support_plane,
+                    table_matches, table_rotation, whitening)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
@@ -265,6 +267,16 @@ class RefineOptions:
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
+    # f_t also on the static table: corners of the background of view k (table_points, clear of the
+    # objects) tracked into its temporal neighbour (refine.table.table_matches) and lifted onto the
+    # plane the objects rest on (refine.table.support_plane, from the current poses, every outer
+    # iteration) -- two-view transfer points like f_t's object points. The table's homography fixes
+    # the cameras' relative rotation, which the objects alone leave weak on 20-degree baselines
+    # (refine.table). Off by default
+    table_flow: bool | str = False
+    table_points: int = 1000
+    table_weight: float = 1.0
+    table_levels: str = "finest"     # "rotation": at the finest blur level only, or "all"
     min_visible_px: int = 30
     n_init_points: int = 200
     compute_uncertainty: bool = True
@@ -383,6 +395,8 @@ class _Stage:
         self._norm: dict[int, np.ndarray] = {}
         self._me: dict[int, np.ndarray] = {}
         self._flows: dict[tuple[int, int], tuple] = {}
+        self._table: dict[tuple[int, int], tuple] = {}    # (k, i) -> table corner matches (refine.table)
+        self._table_rot: dict[tuple[int, int], object] = {}   # (k, i) -> TableRotation or None
         self.visible: set[tuple[int, int]] = set()
         # renders of the coarse-move check at the current poses, taken by the next render() of the
         # same view when its poses are still exactly these (view -> (poses, ViewRender))
@@ -489,6 +503,8 @@ class _Stage:
             terms.append(self._new_point_term(renders, vis))
         if opt.use_temporal and opt.beta > 0 and self.pairs:
             terms.append(self._temporal_term(renders))
+        if opt.table_flow == "rotation" and self.pairs and (self.at_finest or opt.table_levels == "all"):
+            terms.append(self._table_rotation_term(renders))
         if opt.contact_weight > 0 and len(self.pb.obj_ids) > 1:
             surfaces, points = self.contact_surfaces
             terms.append(ContactTerm(surfaces, contact_groups(self.pb, surfaces, points),
@@ -651,8 +667,76 @@ class _Stage:
             ok = d > 0
             if ok.any():
                 groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
+        if opt.table_flow in (True, "fit"):
+            groups += self._table_groups(renders)
         self._t("temporal_matching_s", time.perf_counter() - t0)
         return TemporalTerm(groups, weight=opt.beta, rho=opt.rho)
+
+    @cached_property
+    def hull_points(self) -> list[np.ndarray]:
+        """Per object the vertices of its model's convex hull (mm, model frame): the points that
+        decide the support plane of :func:`refine.table.support_plane`."""
+        return [np.asarray(self.models[oid].mesh.convex_hull.vertices, np.float64) for oid in self.pb.obj_ids]
+
+    def _table_rotation_term(self, renders: dict) -> TableRotationTerm:
+        """The table's measured relative rotations of the temporal pairs (``table_flow="rotation"``):
+        matched and measured once per level (:func:`refine.table.table_rotation`), each pair
+        weighted by its own covariance."""
+        pb, opt = self.pb, self.opt
+        plane = None
+        rots = []
+        for (k, i) in self.pairs:
+            if (k, i) not in self._table_rot:
+                for v in (k, i):
+                    if v not in renders:
+                        renders[v] = self.render(v)
+                xs, xd = table_matches(pb.views[k].image, pb.views[i].image, renders[k].instance > 0,
+                                       renders[i].instance > 0, opt.table_points)
+                if plane is None:
+                    known = [j for j in range(len(pb.obj_ids)) if pb.obj_known[j]]
+                    pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
+                    centres = np.stack([inv_T(T)[:3, 3] for T in pb.T_c])
+                    plane = (support_plane(pts, centres) if pts else None) or False
+                n_k = pb.T_c[k][:3, :3] @ plane[0] if plane else None
+                R_guess = pb.T_c[i][:3, :3] @ pb.T_c[k][:3, :3].T
+                m = table_rotation(xs, xd, pb.views[k].K, pb.views[i].K, R_guess, n_k)
+                W = whitening(m[1]) if m is not None else None
+                self._table_rot[(k, i)] = TableRotation(i, k, m[0], W) if W is not None else None
+            if self._table_rot[(k, i)] is not None:
+                rots.append(self._table_rot[(k, i)])
+        return TableRotationTerm(rots, weight=opt.table_weight)
+
+    def _table_groups(self, renders: dict) -> list[TemporalGroup]:
+        """f_t's table points (``RefineOptions.table_flow``): for each temporal pair (k, i), corners
+        of view k's table matched into view i (cached per level) and lifted onto the support plane
+        of the current poses; none when no plane has two objects resting on it."""
+        pb, opt = self.pb, self.opt
+        known = [j for j in range(len(pb.obj_ids)) if pb.obj_known[j]]
+        pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
+        centres = np.stack([inv_T(T)[:3, 3] for T in pb.T_c])
+        plane = support_plane(pts, centres) if pts else None
+        if plane is None or plane[2] < 2:
+            return []
+        n_w, d_w, _ = plane
+        matches = []
+        for (k, i) in self.pairs:
+            for v in (k, i):
+                if v not in renders:
+                    renders[v] = self.render(v)
+            if (k, i) not in self._table:
+                self._table[(k, i)] = table_matches(pb.views[k].image, pb.views[i].image, renders[k].instance > 0,
+                                                    renders[i].instance > 0, opt.table_points)
+            if len(self._table[(k, i)][0]):
+                matches.append((k, i) + self._table[(k, i)])
+        if opt.table_flow == "fit" and matches:
+            n_w, d_w, _ = fit_table_plane(matches, [v.K for v in pb.views], pb.T_c, n_w, d_w)
+        groups = []
+        for (k, i, xs, xd) in matches:
+            z = plane_depth_mm(pb.views[k].K, pb.T_c[k], n_w, d_w, xs)
+            ok = z > 0
+            if int(ok.sum()) >= 20:
+                groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], z[ok]), xd[ok]))
+        return groups
 
     def _register_gauge(self, terms: list, sopt: SolverOptions, stage: str) -> None:
         """Fit the first (gauge) camera alone to the rest of the bundle -- its own terms only, every
@@ -1759,7 +1843,13 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):
         raise YcbvssError(f"RefineOptions.template_supersample must be an integer 1-8, got {opt.template_supersample!r}",
                           where=f"scene {scene.scene_id}")
-    for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm"):
+    if not (opt.table_flow is False or opt.table_flow is True or opt.table_flow in ("fit", "rotation")):
+        raise YcbvssError(f"RefineOptions.table_flow must be False, True, 'fit' or 'rotation', got {opt.table_flow!r}",
+                          where=f"scene {scene.scene_id}")
+    if not (isinstance(opt.table_points, int) and not isinstance(opt.table_points, bool) and opt.table_points >= 50):
+        raise YcbvssError(f"RefineOptions.table_points must be an integer >= 50, got {opt.table_points!r}",
+                          where=f"scene {scene.scene_id}")
+    for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm", "table_weight"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):
             raise YcbvssError(f"RefineOptions.{name} must be a finite number >= 0, got {v!r}", where=f"scene {scene.scene_id}")

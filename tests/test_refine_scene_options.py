@@ -116,8 +116,15 @@ def test_a_bad_edge_contact_mm_is_an_error_naming_the_option(bad):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(edge_contact_mm=bad))
 
 
-@pytest.mark.parametrize("name", ["contact_weight", "contact_tol_mm"])
+@pytest.mark.parametrize("name", ["contact_weight", "contact_tol_mm", "table_weight"])
 @pytest.mark.parametrize("bad", [-0.5, float("inf"), "1", None, False])
 def test_a_bad_contact_option_is_an_error_naming_it(name, bad):
     with pytest.raises(YcbvssError, match=name):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**{name: bad}))
+
+
+@pytest.mark.parametrize("kw", [dict(table_flow="plane"), dict(table_flow=1.0), dict(table_points=10),
+                                dict(table_points=500.0), dict(table_points=True)])
+def test_a_bad_table_option_is_an_error_naming_it(kw):
+    with pytest.raises(YcbvssError, match=next(iter(kw))):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**kw))

@@ -1,0 +1,347 @@
+"""The static table under the objects as a cue to the camera motion (``RefineOptions.table_flow``).
+
+With free cameras and a 20-degree viewing baseline, the objects alone fix the cameras' rotation
+only weakly: a camera path turned a little less with a deeper scene (the bas-relief ambiguity)
+explains their images almost as well, and the objects' small apparent-size biases pick a point
+along it (suite medium-1 from the exact GT: every object recedes, up to 2.3 mm). YCB-V's objects
+stand on a table that fills the rest of the image. Its texture moves between two views by the
+homography of a plane, which fixes the relative rotation regardless of the scene's depth relief.
+
+- :func:`support_plane`: the table plane from the objects' current world poses -- the face of the
+  convex hull of all their points that has every camera above it and the most objects touching it
+  (an object resting on a table touches it with its lowest points).
+- :func:`plane_depth_mm`: z-depth (mm) of pixels' rays on that plane in one view.
+- :func:`table_matches`: sparse Lucas-Kanade matches of table corners between two images (OpenCV),
+  kept when the backward track returns within ``fb_px`` and away from the objects.
+
+The matches join f_t as extra two-view transfer points (:class:`refine.terms.TemporalGroup`): each
+corner of view k is lifted onto the plane and must land on its match in view i.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from ..geometry.so3 import exp_so3, log_so3
+
+TOUCH_MM = 2.0          # an object touches a plane when its lowest point lies within this (mm)
+ABOVE_MM = 50.0         # every camera centre at least this far above the plane (mm)
+
+
+def support_plane(points_w: list[np.ndarray], cam_centres_w: np.ndarray, touch_mm: float = TOUCH_MM,
+                  above_mm: float = ABOVE_MM) -> tuple[np.ndarray, float, int] | None:
+    """The plane the objects rest on, from their points in world coordinates (mm).
+
+    ``points_w``: one (N_j, 3) array per object; ``cam_centres_w`` (M, 3): camera centres. Among
+    the faces of the convex hull of all points, those with every camera at least ``above_mm``
+    above them (the table is seen from above) are candidates; the one with the most objects
+    within ``touch_mm`` of it wins (ties: the larger face). Returns (unit normal n pointing to the
+    cameras, offset d, objects touching) with the plane n . X = d, or None (no candidate, or the
+    hull is degenerate)."""
+    pts = np.concatenate([np.asarray(p, np.float64) for p in points_w])
+    owner = np.concatenate([np.full(len(p), j) for j, p in enumerate(points_w)])
+    try:
+        hull = ConvexHull(pts)
+    except (QhullError, ValueError):
+        return None
+    C = np.asarray(cam_centres_w, np.float64).reshape(-1, 3)
+    planes: dict = {}                         # coplanar facets share one plane: their areas add up
+    for eq, simplex in zip(hull.equations, hull.simplices):
+        key = tuple(np.round(eq, 6))
+        tri = pts[simplex]
+        area = 0.5 * float(np.linalg.norm(np.cross(tri[1] - tri[0], tri[2] - tri[0])))
+        planes[key] = (eq, planes.get(key, (eq, 0.0))[1] + area)
+    best = None
+    for eq, area in planes.values():
+        # inside the hull n_out . x + off <= 0, i.e. n . x >= d with n = -n_out, d = off
+        n, d = -eq[:3], float(eq[3])
+        if np.any(C @ n - d < above_mm):
+            continue
+        h = pts @ n - d                        # heights above the plane (>= 0 up to rounding)
+        lowest = np.full(len(points_w), np.inf)
+        np.minimum.at(lowest, owner, h)
+        touching = int(np.sum(lowest <= touch_mm))
+        score = (touching, area)
+        if best is None or score > best[0]:
+            best = (score, n.copy(), d, touching)
+    if best is None:
+        return None
+    return best[1], best[2], best[3]
+
+
+def plane_in_camera(n_w: np.ndarray, d_w: float, T_w2c: np.ndarray) -> tuple[np.ndarray, float]:
+    """The plane n . X = d (world) in a camera's frame: (n_c, d_c) with n_c . X_c = d_c."""
+    R, t = T_w2c[:3, :3], T_w2c[:3, 3]
+    n_c = R @ n_w
+    return n_c, float(d_w + n_c @ t)
+
+
+def plane_depth_mm(K: np.ndarray, T_w2c: np.ndarray, n_w: np.ndarray, d_w: float,
+                   uv: np.ndarray) -> np.ndarray:
+    """z-depth (mm) where the rays of pixels ``uv`` (N, 2; integer coordinates at pixel centres)
+    meet the plane n . X = d (world); 0 where they do not (parallel, or behind the camera)."""
+    n_c, d_c = plane_in_camera(np.asarray(n_w, np.float64), d_w, T_w2c)
+    uv = np.asarray(uv, np.float64).reshape(-1, 2)
+    fx, fy, s, cx, cy = K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2]
+    y = (uv[:, 1] - cy) / fy
+    x = (uv[:, 0] - cx - s * y) / fx
+    den = n_c[0] * x + n_c[1] * y + n_c[2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(np.abs(den) > 1e-12, d_c / den, 0.0)
+    return np.where(np.isfinite(z) & (z > 0), z, 0.0)
+
+
+def _gray(img: np.ndarray) -> np.ndarray:
+    return cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) if img.ndim == 3 else img
+
+
+def table_matches(img_a: np.ndarray, img_b: np.ndarray, objects_a: np.ndarray, objects_b: np.ndarray | None,
+                  n_points: int = 1000, clear_px: int = 10, border_px: int = 16, fb_px: float = 0.2
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Matches (xa (N, 2), xb (N, 2); pixel coordinates, integer at pixel centres) of corners of
+    image a's background into image b: Shi-Tomasi corners at least ``clear_px`` from every object
+    of ``objects_a`` (bool mask) and ``border_px`` from the border, tracked by pyramidal
+    Lucas-Kanade (21 px window, 4 levels) and kept when the backward track returns within
+    ``fb_px`` and, with ``objects_b``, the match lies ``clear_px`` clear of image b's objects."""
+    a, b = _gray(img_a), _gray(img_b)
+    H, W = a.shape
+    k = np.ones((2 * clear_px + 1, 2 * clear_px + 1), np.uint8)
+    mask = (cv2.dilate(objects_a.astype(np.uint8), k) == 0).astype(np.uint8) * 255
+    mask[:border_px], mask[-border_px:], mask[:, :border_px], mask[:, -border_px:] = 0, 0, 0, 0
+    p = cv2.goodFeaturesToTrack(a, n_points, 0.01, 8, mask=mask, blockSize=7)
+    if p is None:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    p = p.reshape(-1, 1, 2).astype(np.float32)
+    lk = dict(winSize=(21, 21), maxLevel=3, criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 50, 1e-3))
+    q, st, _ = cv2.calcOpticalFlowPyrLK(a, b, p, None, **lk)
+    back, st2, _ = cv2.calcOpticalFlowPyrLK(b, a, q, None, **lk)
+    ok = (st[:, 0] == 1) & (st2[:, 0] == 1) & (np.linalg.norm((back - p)[:, 0], axis=1) < fb_px)
+    xa, xb = p[ok, 0].astype(np.float64), q[ok, 0].astype(np.float64)
+    inside = (xb[:, 0] >= border_px) & (xb[:, 0] < W - border_px) & (xb[:, 1] >= border_px) & (xb[:, 1] < H - border_px)
+    xa, xb = xa[inside], xb[inside]
+    if objects_b is not None and len(xb):
+        clear_b = cv2.dilate(objects_b.astype(np.uint8), k) == 0
+        keep = clear_b[xb[:, 1].round().astype(int), xb[:, 0].round().astype(int)]
+        xa, xb = xa[keep], xb[keep]
+    return xa, xb
+
+
+def _lift(K: np.ndarray, T_w2c: np.ndarray, m_w: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Camera points (N, 3) of pixels ``uv`` on the plane m . X = 1 (world; m = n / d)."""
+    R, t = T_w2c[:3, :3], T_w2c[:3, 3]
+    # plane in camera k: m_c . X_c = 1 with m_c = R m / (1 + m . R^T t)
+    m_c = R @ m_w / (1.0 + m_w @ (R.T @ t))
+    ray = np.c_[(uv[:, 0] - K[0, 2] - K[0, 1] * (uv[:, 1] - K[1, 2]) / K[1, 1]) / K[0, 0],
+                (uv[:, 1] - K[1, 2]) / K[1, 1], np.ones(len(uv))]
+    den = ray @ m_c
+    z = np.where(den > 1e-12, 1.0 / np.where(den > 1e-12, den, 1.0), 0.0)
+    return ray * z[:, None]
+
+
+def _transfer_residuals(m_w: np.ndarray, pairs: list, Ks: list, T_c: np.ndarray) -> np.ndarray:
+    out = []
+    for (k, i, xs, xd) in pairs:
+        Xk = _lift(Ks[k], T_c[k], m_w, xs)
+        T = T_c[i] @ np.linalg.inv(T_c[k])
+        Xi = Xk @ T[:3, :3].T + T[:3, 3]
+        z = np.where(Xi[:, 2] > 1e-9, Xi[:, 2], np.nan)
+        uv = np.c_[Ks[i][0, 0] * Xi[:, 0] / z + Ks[i][0, 1] * Xi[:, 1] / z + Ks[i][0, 2], Ks[i][1, 1] * Xi[:, 1] / z + Ks[i][1, 2]]
+        out.append((xd - uv).ravel())
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def fit_table_plane(pairs: list, Ks: list, T_c: np.ndarray, n_w: np.ndarray, d_w: float,
+                    iters: int = 5, scale_px: float = 1.0) -> tuple[np.ndarray, float, float]:
+    """The plane that best explains the table matches given the cameras: Gauss-Newton with
+    Cauchy weights (``scale_px``) on the transfer residuals of every pair ``(k, i, xs, xd)``
+    (corners of view k, their matches in view i), from the plane n . X = d (world, mm; d != 0,
+    i.e. not through the world origin). Returns (n, d, median |residual| px)."""
+    m = np.asarray(n_w, np.float64) / d_w
+    r = _transfer_residuals(m, pairs, Ks, T_c)
+    if len(r) == 0:
+        return np.asarray(n_w, np.float64), float(d_w), float("nan")
+    for _ in range(iters):
+        ok = np.isfinite(r)
+        w = 1.0 / (1.0 + (np.where(ok, r, 0.0) / scale_px) ** 2)
+        h = 1e-6 * max(np.linalg.norm(m), 1e-12)
+        J = np.stack([(_transfer_residuals(m + h * e, pairs, Ks, T_c) - r) / h for e in np.eye(3)], axis=1)
+        ok &= np.all(np.isfinite(J), axis=1)
+        A = (J[ok] * w[ok, None]).T @ J[ok]
+        g = (J[ok] * w[ok, None]).T @ r[ok]
+        try:
+            step = -np.linalg.solve(A + 1e-9 * np.trace(A) * np.eye(3), g)
+        except np.linalg.LinAlgError:
+            break
+        m_new = m + step
+        r_new = _transfer_residuals(m_new, pairs, Ks, T_c)
+        cost = lambda rr: float(np.sum(np.log1p((np.where(np.isfinite(rr), rr, 1e3) / scale_px) ** 2)))
+        if cost(r_new) >= cost(r):
+            break
+        m, r = m_new, r_new
+        if np.linalg.norm(step) < 1e-9 * np.linalg.norm(m):
+            break
+    d = np.sign(d_w) / np.linalg.norm(m)       # the same plane, its normal kept on the side it had
+    med = float(np.median(np.abs(r[np.isfinite(r)]))) if np.isfinite(r).any() else float("nan")
+    return m * d, float(d), med
+
+
+def _orthobasis(n: np.ndarray) -> np.ndarray:
+    """(3, 2): two unit vectors orthogonal to ``n`` and to each other."""
+    a = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(n, a)
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(n, u)], axis=1)
+
+
+def _homography_residuals(p: np.ndarray, R0: np.ndarray, n0: np.ndarray, B: np.ndarray,
+                          a: np.ndarray, xd: np.ndarray, K_i: np.ndarray) -> np.ndarray:
+    R = exp_so3(p[:3]) @ R0
+    n = n0 + B @ p[6:8]
+    n = n / np.linalg.norm(n)
+    H = R + np.outer(p[3:6], n)
+    y = a @ (K_i @ H).T
+    return (xd - y[:, :2] / y[:, 2:]).ravel()
+
+
+def table_rotation(xs: np.ndarray, xd: np.ndarray, K_k: np.ndarray, K_i: np.ndarray, R_guess: np.ndarray,
+                   n_guess: np.ndarray | None = None, ransac_px: float = 1.0, min_inliers: int = 50,
+                   iters: int = 5) -> tuple[np.ndarray, np.ndarray, int, float] | None:
+    """The relative rotation R_ik (camera k to camera i) that the table's homography between two
+    views shows, with its covariance: a plane's homography in normalised coordinates is
+    H = R + t n^T (t: the translation over the plane's distance), so R is measured without the
+    scene's scale or depth relief.
+
+    ``xs`` (N, 2) pixels of view k, ``xd`` their matches in view i. RANSAC (OpenCV,
+    ``ransac_px``) keeps the matches of the dominant plane; of the decompositions of H the one
+    nearest ``R_guess`` (and ``n_guess``, the plane normal in camera k, when given) is refined by
+    Gauss-Newton on (rotation, t, n) against the inliers' pixel residuals. Returns (R (3, 3),
+    covariance of its left rotation error (3, 3; rad^2, from the residuals' variance), inliers,
+    median inlier residual px), or None when fewer than ``min_inliers`` matches fit a plane."""
+    if len(xs) < min_inliers:
+        return None
+    Hp, mask = cv2.findHomography(xs.astype(np.float32), xd.astype(np.float32), cv2.RANSAC, ransac_px)
+    if Hp is None or mask is None or int(mask.sum()) < min_inliers:
+        return None
+    # the inliers again under the final (refined) homography: RANSAC's own set is that of its best
+    # minimal sample, which misses good matches far from the sample's points
+    y = np.c_[xs, np.ones(len(xs))] @ Hp.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inl = np.linalg.norm(y[:, :2] / y[:, 2:] - xd, axis=1) < ransac_px
+    if int(inl.sum()) < min_inliers:
+        return None
+    Hn = np.linalg.inv(K_i) @ Hp @ K_k
+    Hn /= np.linalg.svd(Hn, compute_uv=False)[1]
+    _, Rs, ts, ns = cv2.decomposeHomographyMat(Hn, np.eye(3))
+
+    def score(r, nn):
+        s = rotation_angle(r @ R_guess.T)
+        if n_guess is not None:
+            s += np.arccos(np.clip(abs(float(nn.ravel() @ n_guess)), -1.0, 1.0))
+        return s
+    best = min(range(len(Rs)), key=lambda j: score(Rs[j], ns[j]))
+    R0, n0 = np.asarray(Rs[best], np.float64), np.asarray(ns[best], np.float64).ravel()
+    t0 = np.asarray(ts[best], np.float64).ravel()
+    if np.linalg.det(Hn) < 0:
+        return None
+    B = _orthobasis(n0)
+    a = np.c_[xs[inl], np.ones(int(inl.sum()))] @ np.linalg.inv(K_k).T
+    b = xd[inl]
+    p = np.r_[np.zeros(3), t0, np.zeros(2)]
+    r = _homography_residuals(p, R0, n0, B, a, b, K_i)
+    J = None
+    for _ in range(iters):
+        J = np.stack([(_homography_residuals(p + h, R0, n0, B, a, b, K_i) - r) / 1e-7
+                      for h in 1e-7 * np.eye(8)], axis=1)
+        try:
+            step = -np.linalg.lstsq(J, r, rcond=None)[0]
+        except np.linalg.LinAlgError:
+            return None
+        r_new = _homography_residuals(p + step, R0, n0, B, a, b, K_i)
+        if r_new @ r_new >= r @ r:
+            break
+        p, r = p + step, r_new
+    JtJ = J.T @ J
+    dof = max(len(r) - 8, 1)
+    try:
+        cov = np.linalg.inv(JtJ) * float(r @ r) / dof
+    except np.linalg.LinAlgError:
+        return None
+    R = exp_so3(p[:3]) @ R0
+    med = float(np.median(np.hypot(r[0::2], r[1::2])))
+    return R, cov[:3, :3], int(inl.sum()), med
+
+
+def rotation_angle(R: np.ndarray) -> float:
+    """Angle (rad) of a rotation matrix."""
+    return float(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))
+
+
+@dataclass
+class TableRotation:
+    """One measured relative rotation: cameras i and k (view indices), R_ik measured, and the
+    whitening W (3, 3) with W^T W the inverse covariance of its left rotation error."""
+
+    i: int
+    k: int
+    R_ik: np.ndarray
+    W: np.ndarray
+
+
+@dataclass
+class TableRotationTerm:
+    """weight * sum over pairs of |W log(R_i R_k^T R_meas^T)|^2: the cameras' relative rotations
+    held to what the table's homographies measured (:func:`table_rotation`), each weighted by
+    its own covariance. Cameras only; scale-free (a homography's rotation does not see the
+    scene's scale)."""
+
+    groups: list = field(default_factory=list)     # TableRotation per measured pair
+    weight: float = 1.0
+    name: str = "table"
+
+    def n_obs(self) -> int:
+        return 3 * len(self.groups)
+
+    def _residual(self, pb, p: TableRotation) -> tuple[np.ndarray, np.ndarray]:
+        R = pb.T_c[p.i][:3, :3] @ pb.T_c[p.k][:3, :3].T
+        return p.W @ log_so3(R @ p.R_ik.T), R
+
+    def cost(self, pb) -> float:
+        return self.weight * float(sum(float(e @ e) for e in (self._residual(pb, p)[0] for p in self.groups)))
+
+    def linearize(self, pb) -> tuple[float, list]:
+        from .terms import Linearization
+        total, out = 0.0, []
+        for p in self.groups:
+            e, R = self._residual(pb, p)
+            total += float(e @ e)
+            Ji, Jk = np.zeros((3, 6)), np.zeros((3, 6))
+            # left increments (v, w): R_i <- exp(w_i) R_i moves e by J_l^-1(e) w_i, R_k's by -J_l^-1(e) R w_k
+            Jl = p.W @ _inv_left_jacobian(log_so3(R @ p.R_ik.T))
+            Ji[:, 3:] = Jl
+            Jk[:, 3:] = -Jl @ R
+            pack = lambda J: np.stack([J[0:2], np.stack([J[2], np.zeros(6)])])   # 3 residuals as two 2-rows
+            A = np.zeros((2, 2, 2))
+            A[:, 0, 0] = A[:, 1, 1] = 2.0 * self.weight
+            g = 2.0 * self.weight * np.array([[e[0], e[1]], [e[2], 0.0]])
+            out.append(Linearization(int(pb.cam_block[p.i]), int(pb.cam_block[p.k]), pack(Ji), pack(Jk), A, g))
+        return self.weight * total, out
+
+
+def _inv_left_jacobian(phi: np.ndarray) -> np.ndarray:
+    """Inverse left Jacobian of SO(3) at the rotation vector ``phi``: log(exp(d) exp(phi)) ~ phi + J^-1 d."""
+    th = float(np.linalg.norm(phi))
+    P = np.array([[0, -phi[2], phi[1]], [phi[2], 0, -phi[0]], [-phi[1], phi[0], 0]])
+    if th < 1e-8:
+        return np.eye(3) - 0.5 * P
+    return np.eye(3) - 0.5 * P + (1.0 / th ** 2 - (1 + np.cos(th)) / (2 * th * np.sin(th))) * (P @ P)
+
+
+def whitening(cov: np.ndarray) -> np.ndarray | None:
+    """W with W^T W = cov^-1 (Cholesky of the inverse), None when ``cov`` is not positive definite."""
+    try:
+        return np.linalg.cholesky(np.linalg.inv(cov)).T
+    except np.linalg.LinAlgError:
+        return None

@@ -1,0 +1,166 @@
+"""refine.table: the support plane, plane depths and table corner matches (RefineOptions.table_flow)."""
+import cv2
+import numpy as np
+import trimesh
+
+from ycbvss.refine.jacobians import backproject_px
+from ycbvss.refine.table import plane_depth_mm, support_plane, table_matches
+
+
+def _box_points(extent, centre, yaw_deg=0.0):
+    b = trimesh.creation.box(extent)
+    c, s = np.cos(np.radians(yaw_deg)), np.sin(np.radians(yaw_deg))
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+    return b.vertices @ R.T + np.asarray(centre, float)
+
+
+def _look_at(eye, target):
+    """World-to-camera 4x4 (OpenCV axes: z forward, y down) of a camera at ``eye`` looking at ``target``."""
+    z = np.asarray(target, float) - eye
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0, 0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, z])
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, -R @ eye
+    return T
+
+
+def test_support_plane_finds_the_table_under_resting_and_stacked_boxes():
+    tilt = trimesh.transformations.rotation_matrix(np.radians(12.0), [1, 0.3, 0])
+    objs = [_box_points((60, 40, 100), (0, 0, 50), 10), _box_points((80, 80, 30), (150, 20, 15), 40),
+            _box_points((50, 50, 50), (-40, 160, 25), 75),
+            _box_points((40, 40, 40), (0, 0, 120), 20)]            # stacked on the first: not touching
+    objs = [p @ tilt[:3, :3].T + (5.0, -7.0, 300.0) for p in objs]
+    n_true = tilt[:3, :3] @ [0, 0, 1.0]
+    d_true = float(n_true @ (5.0, -7.0, 300.0))
+    cams = np.array([[0, -800, 900], [300, -700, 800], [-300, -750, 850.0]]) @ tilt[:3, :3].T + (5.0, -7.0, 300.0)
+    n, d, touching = support_plane(objs, cams)
+    assert touching == 3
+    assert np.degrees(np.arccos(np.clip(n @ n_true, -1, 1))) < 1e-6 and abs(d - d_true) < 1e-6
+    # seen from below, no face has every camera above it but the top ones: the answer is not the table
+    below = support_plane(objs, -cams + 2 * np.array([5.0, -7.0, 300.0]))
+    assert below is None or below[0] @ n_true < 0.5
+
+
+def test_plane_depth_matches_the_ray_plane_intersection():
+    K = np.array([[600.0, 0, 320], [0, 610.0, 240], [0, 0, 1]])
+    T = _look_at(np.array([100.0, -600, 700]), np.array([0.0, 0, 0]))
+    uv = np.array([[320.0, 240.0], [10.0, 470.0], [600.0, 30.0]])
+    z = plane_depth_mm(K, T, np.array([0, 0, 1.0]), 0.0, uv)
+    X_c = backproject_px(K, uv, z)
+    X_w = (X_c - T[:3, 3]) @ T[:3, :3]          # R^T (X_c - t)
+    assert np.all(z > 0) and np.max(np.abs(X_w[:, 2])) < 1e-9
+    # the horizon and above: no intersection in front of the camera
+    up = plane_depth_mm(K, _look_at(np.array([0.0, -600, 100]), np.array([0.0, 0, 100])), np.array([0, 0, 1.0]), 0.0,
+                        np.array([[320.0, 0.0]]))
+    assert up[0] == 0.0
+
+
+def test_table_matches_follow_the_plane_homography_and_skip_the_objects():
+    rng = np.random.default_rng(3)
+    tex = cv2.GaussianBlur((rng.random((480, 640)) * 255).astype(np.uint8), (0, 0), 2.0)
+    tex = cv2.normalize(tex, None, 0, 255, cv2.NORM_MINMAX)
+    H = np.array([[1.01, 0.02, 3.5], [-0.015, 0.995, -2.25], [1.2e-5, -0.8e-5, 1.0]])
+    warped = cv2.warpPerspective(tex, H, (640, 480), flags=cv2.INTER_CUBIC)
+    obj = np.zeros((480, 640), bool)
+    obj[180:300, 260:380] = True
+    xa, xb = table_matches(np.dstack([tex] * 3), np.dstack([warped] * 3), obj, None, n_points=600)
+    assert len(xa) > 300
+    p = np.c_[xa, np.ones(len(xa))] @ H.T
+    err = np.linalg.norm(p[:, :2] / p[:, 2:] - xb, axis=1)
+    assert np.median(err) < 0.05 and np.percentile(err, 95) < 0.2
+    # no corner within 10 px of the object
+    near = (xa[:, 0] > 250) & (xa[:, 0] < 390) & (xa[:, 1] > 170) & (xa[:, 1] < 310)
+    assert not near.any()
+
+
+def test_fit_table_plane_recovers_the_plane_from_matches_alone():
+    from ycbvss.refine.table import fit_table_plane
+    K = np.array([[1066.8, 0, 312.99], [0, 1067.5, 241.31], [0, 0, 1.0]])
+    n_true = np.array([0.05, -0.02, 1.0])
+    n_true /= np.linalg.norm(n_true)
+    d_true = -5.0
+    eyes = [np.array([x, -700.0, 650.0]) for x in (-120.0, 0.0, 130.0)]
+    T_w = [_look_at(e, np.array([0.0, 0, 0])) for e in eyes]
+    T_c = np.stack([T @ np.linalg.inv(T_w[0]) for T in T_w])     # world = the first camera
+    # the plane in that world
+    R0, t0 = T_w[0][:3, :3], T_w[0][:3, 3]
+    n_w = R0 @ n_true
+    d_w = d_true + n_w @ t0
+    rng = np.random.default_rng(0)
+    pairs = []
+    for k, i in ((0, 1), (1, 2)):
+        xs = np.c_[rng.uniform(20, 620, 400), rng.uniform(20, 460, 400)]
+        z = plane_depth_mm(K, T_c[k], n_w, d_w, xs)
+        Xk = backproject_px(K, xs, z)
+        T = T_c[i] @ np.linalg.inv(T_c[k])
+        Xi = Xk @ T[:3, :3].T + T[:3, 3]
+        xd = (Xi / Xi[:, 2:]) @ K.T
+        xd = xd[:, :2] + rng.normal(0, 0.05, (len(xs), 2))
+        xd[:20] += 15.0                                              # outliers
+        pairs.append((k, i, xs, xd))
+    tilt = trimesh.transformations.rotation_matrix(np.radians(3.0), [1, 0, 0])[:3, :3]
+    n0, d0, med = fit_table_plane(pairs, [K] * 3, T_c, tilt @ n_w, d_w * 1.02, iters=10)
+    assert np.degrees(np.arccos(np.clip(n0 @ n_w, -1, 1))) < 0.05 and abs(d0 - d_w) < 0.5
+    assert med < 0.1
+
+
+def _two_views_of_a_plane(rng, noise_px=0.05):
+    K = np.array([[1066.8, 0, 312.99], [0, 1067.5, 241.31], [0, 0, 1.0]])
+    T_w = [_look_at(np.array([x, -700.0, 650.0]), np.array([0.0, 0, 0])) for x in (-60.0, 60.0)]
+    xs = np.c_[rng.uniform(20, 620, 500), rng.uniform(20, 460, 500)]
+    z = plane_depth_mm(K, T_w[0], np.array([0, 0, 1.0]), 0.0, xs)
+    xs, z = xs[z > 0], z[z > 0]
+    T = T_w[1] @ np.linalg.inv(T_w[0])
+    Xi = backproject_px(K, xs, z) @ T[:3, :3].T + T[:3, 3]
+    xd = (Xi / Xi[:, 2:]) @ K.T
+    xd = xd[:, :2] + rng.normal(0, noise_px, (len(xs), 2))
+    xd[:30] += rng.normal(0, 20, (30, 2))                              # outliers
+    return K, T_w, T, xs, xd
+
+
+def test_table_rotation_measures_the_relative_rotation_with_an_honest_covariance():
+    from ycbvss.geometry.so3 import exp_so3, log_so3
+    from ycbvss.refine.table import table_rotation
+    errs, zs = [], []
+    for seed in range(8):
+        rng = np.random.default_rng(seed)
+        K, T_w, T, xs, xd = _two_views_of_a_plane(rng)
+        guess = exp_so3(np.radians([0.5, -0.3, 0.4])) @ T[:3, :3]     # the current estimate, off by ~0.7 deg
+        R, cov, n_inl, med = table_rotation(xs, xd, K, K, guess, T_w[0][:3, :3] @ [0, 0, 1.0])
+        e = log_so3(R @ T[:3, :3].T)
+        errs.append(np.degrees(np.linalg.norm(e)))
+        zs.append(e @ np.linalg.solve(cov, e))                        # chi-square, 3 dof
+        assert n_inl >= 0.95 * (len(xs) - 30) and med < 0.1          # the 30 outliers out, nearly all others in
+    assert max(errs) < 0.01                                           # 0.05 px matches: rotation within 0.01 deg
+    assert 0.5 < np.mean(zs) < 8.0                                    # mean chi2(3) = 3: the covariance is not off by 3x
+
+
+def test_table_rotation_term_gradient_and_solve(fd_gradient):
+    from ycbvss.geometry.se3 import exp_se3
+    from ycbvss.geometry.so3 import exp_so3, log_so3
+    from ycbvss.refine.problem import BundleProblem, View
+    from ycbvss.refine.solver import SolverOptions, assemble, run_lm
+    from ycbvss.refine.table import TableRotation, TableRotationTerm, whitening
+    K = np.array([[600.0, 0, 320], [0, 600.0, 240], [0, 0, 1]])
+    views = [View(i, K, 640, 480) for i in range(3)]
+    T_c = np.stack([np.eye(4), exp_se3(np.r_[50.0, 0, 0, 0, np.radians(3), 0]),
+                    exp_se3(np.r_[100.0, 5, 0, np.radians(1), np.radians(6), 0])])
+    R_meas = [exp_so3(np.radians([0.2, 0.1, -0.1])) @ T_c[1][:3, :3],
+              exp_so3(np.radians([-0.1, 0.3, 0.05])) @ T_c[2][:3, :3] @ T_c[1][:3, :3].T]
+    cov = np.diag([1e-8, 4e-8, 2e-8]) + 5e-9
+    pairs = [TableRotation(1, 0, R_meas[0], whitening(cov)), TableRotation(2, 1, R_meas[1], whitening(cov))]
+    pb = BundleProblem(views, [], T_c, np.zeros((0, 4, 4)), cam_free=np.array([False, True, True]), obj_free=np.zeros(0, bool))
+    term = TableRotationTerm(pairs, weight=1.0)
+    c0, lins = term.linearize(pb)
+    assert c0 > 0 and np.isclose(c0, term.cost(pb))
+    _, g = assemble(pb.n_blocks, lins)
+    num = fd_gradient(pb, term, 1e-7)
+    assert np.allclose(g, num, rtol=1e-3, atol=1e-4 * np.abs(num).max())
+    run_lm(pb, [term], SolverOptions(max_iters=20))
+    for p, R in zip(pairs, R_meas):
+        R_now = pb.T_c[p.i][:3, :3] @ pb.T_c[p.k][:3, :3].T
+        assert np.degrees(np.linalg.norm(log_so3(R_now @ R.T))) < 1e-4
+    assert term.cost(pb) < 1e-8 * c0
