@@ -34,8 +34,7 @@ from .shading import lit_template, view_lighting
 from .threads import single_threaded_kernels
 from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
                         area_template, render_view, select_edge_samples, view_edge_candidates, with_area)
-from .table import (TableRotation, TableRotationTerm, fit_table_plane, plane_depth_mm, support_plane,
-                    table_matches, table_rotation, whitening)
+from .table import TableRotation, TableRotationTerm, support_plane, table_matches, table_rotation, whitening
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
@@ -267,16 +266,19 @@ class RefineOptions:
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
-    # f_t also on the static table: corners of the background of view k (table_points, clear of the
-    # objects) tracked into its temporal neighbour (refine.table.table_matches) and lifted onto the
-    # plane the objects rest on (refine.table.support_plane, from the current poses, every outer
-    # iteration) -- two-view transfer points like f_t's object points. The table's homography fixes
-    # the cameras' relative rotation, which the objects alone leave weak on 20-degree baselines
-    # (refine.table). Off by default
-    table_flow: bool | str = False
+    # the static table as a cue to the cameras' relative rotations (refine.table): for each temporal
+    # pair, corners of the table (table_points, clear of the objects) tracked into the neighbour
+    # (OpenCV Lucas-Kanade), the rotation of the table plane's homography measured with its
+    # covariance, and the pair's relative camera rotation held to it (TableRotationTerm, table_weight
+    # x chi-square). Scale-free: it fixes the turn of the camera path that the objects alone leave
+    # weak on 20-degree baselines (their apparent-size biases then pick the depth relief), not the
+    # scene's scale. At the finest blur level only (table_levels "finest"; "all": every level). With
+    # object_ridge "by_baseline" it also puts the point-motion ridge at the finest level of medium
+    # bundles (_ridge_levels). Off by default (measured in bench/results/ycbv21/README.md, session 44)
+    table_flow: bool = False
     table_points: int = 1000
     table_weight: float = 1.0
-    table_levels: str = "finest"     # "rotation": at the finest blur level only, or "all"
+    table_levels: str = "finest"
     min_visible_px: int = 30
     n_init_points: int = 200
     compute_uncertainty: bool = True
@@ -395,7 +397,6 @@ class _Stage:
         self._norm: dict[int, np.ndarray] = {}
         self._me: dict[int, np.ndarray] = {}
         self._flows: dict[tuple[int, int], tuple] = {}
-        self._table: dict[tuple[int, int], tuple] = {}    # (k, i) -> table corner matches (refine.table)
         self._table_rot: dict[tuple[int, int], object] = {}   # (k, i) -> TableRotation or None
         self.visible: set[tuple[int, int]] = set()
         # renders of the coarse-move check at the current poses, taken by the next render() of the
@@ -503,7 +504,7 @@ class _Stage:
             terms.append(self._new_point_term(renders, vis))
         if opt.use_temporal and opt.beta > 0 and self.pairs:
             terms.append(self._temporal_term(renders))
-        if opt.table_flow == "rotation" and self.pairs and (self.at_finest or opt.table_levels == "all"):
+        if opt.table_flow and self.pairs and (self.at_finest or opt.table_levels == "all"):
             terms.append(self._table_rotation_term(renders))
         if opt.contact_weight > 0 and len(self.pb.obj_ids) > 1:
             surfaces, points = self.contact_surfaces
@@ -667,8 +668,6 @@ class _Stage:
             ok = d > 0
             if ok.any():
                 groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
-        if opt.table_flow in (True, "fit"):
-            groups += self._table_groups(renders)
         self._t("temporal_matching_s", time.perf_counter() - t0)
         return TemporalTerm(groups, weight=opt.beta, rho=opt.rho)
 
@@ -679,7 +678,7 @@ class _Stage:
         return [np.asarray(self.models[oid].mesh.convex_hull.vertices, np.float64) for oid in self.pb.obj_ids]
 
     def _table_rotation_term(self, renders: dict) -> TableRotationTerm:
-        """The table's measured relative rotations of the temporal pairs (``table_flow="rotation"``):
+        """The table's measured relative rotations of the temporal pairs (``table_flow``):
         matched and measured once per level (:func:`refine.table.table_rotation`), each pair
         weighted by its own covariance."""
         pb, opt = self.pb, self.opt
@@ -705,38 +704,6 @@ class _Stage:
             if self._table_rot[(k, i)] is not None:
                 rots.append(self._table_rot[(k, i)])
         return TableRotationTerm(rots, weight=opt.table_weight)
-
-    def _table_groups(self, renders: dict) -> list[TemporalGroup]:
-        """f_t's table points (``RefineOptions.table_flow``): for each temporal pair (k, i), corners
-        of view k's table matched into view i (cached per level) and lifted onto the support plane
-        of the current poses; none when no plane has two objects resting on it."""
-        pb, opt = self.pb, self.opt
-        known = [j for j in range(len(pb.obj_ids)) if pb.obj_known[j]]
-        pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
-        centres = np.stack([inv_T(T)[:3, 3] for T in pb.T_c])
-        plane = support_plane(pts, centres) if pts else None
-        if plane is None or plane[2] < 2:
-            return []
-        n_w, d_w, _ = plane
-        matches = []
-        for (k, i) in self.pairs:
-            for v in (k, i):
-                if v not in renders:
-                    renders[v] = self.render(v)
-            if (k, i) not in self._table:
-                self._table[(k, i)] = table_matches(pb.views[k].image, pb.views[i].image, renders[k].instance > 0,
-                                                    renders[i].instance > 0, opt.table_points)
-            if len(self._table[(k, i)][0]):
-                matches.append((k, i) + self._table[(k, i)])
-        if opt.table_flow == "fit" and matches:
-            n_w, d_w, _ = fit_table_plane(matches, [v.K for v in pb.views], pb.T_c, n_w, d_w)
-        groups = []
-        for (k, i, xs, xd) in matches:
-            z = plane_depth_mm(pb.views[k].K, pb.T_c[k], n_w, d_w, xs)
-            ok = z > 0
-            if int(ok.sum()) >= 20:
-                groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], z[ok]), xd[ok]))
-        return groups
 
     def _register_gauge(self, terms: list, sopt: SolverOptions, stage: str) -> None:
         """Fit the first (gauge) camera alone to the rest of the bundle -- its own terms only, every
@@ -952,13 +919,16 @@ class _Stage:
         return terms
 
 
-def _ridge_levels(object_ridge: bool | str, group: str) -> str:
+def _ridge_levels(object_ridge: bool | str, group: str, table_flow: bool = False) -> str:
     """At which blur levels a keyframe bundle of viewing-baseline ``group`` ("narrow", "medium",
     "wide"; :func:`ycbvss.refine.confidence.baseline_group`) puts the point-motion ridge on its
-    objects (``RefineOptions.object_ridge``): "every", "finest" or "none"."""
+    objects (``RefineOptions.object_ridge``): "every", "finest" or "none". With ``table_flow`` the
+    default ("by_baseline") puts it at the finest level of medium bundles too: once the table holds
+    the cameras' turn, an object's own turn is left to its own terms, which the world-origin ridge
+    stalls (suite medium-1, paper init, seed 0, with the table: R 0.72 -> 0.36 deg)."""
     if object_ridge is True or (object_ridge in ("narrow", "by_baseline") and group == "narrow"):
         return "every"
-    if object_ridge == "finest" or (object_ridge == "by_baseline" and group == "wide"):
+    if object_ridge == "finest" or (object_ridge == "by_baseline" and (group == "wide" or table_flow)):
         return "finest"
     return "none"
 
@@ -1770,7 +1740,7 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     # 7-degree clips: from the exact GT the 8 px level pulled a foam brick on a sugar box 50 mm off
     # (edges of its neighbours merged into its own); from 4 px it stayed within 5 mm.
     stats["baseline_deg"], narrow, group_now = _keyframe_group(pb.T_c, pb.T_m[known], opt.min_baseline_deg)
-    ridge = _ridge_levels(opt.object_ridge, group_now)
+    ridge = _ridge_levels(opt.object_ridge, group_now, opt.table_flow)
     if ridge == "every":     # the point-motion ridge at every level (True, or a narrow bundle)
         pb.obj_moments = stage.moments
     stage.ridge_finest = ridge == "finest"
@@ -1843,8 +1813,11 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):
         raise YcbvssError(f"RefineOptions.template_supersample must be an integer 1-8, got {opt.template_supersample!r}",
                           where=f"scene {scene.scene_id}")
-    if not (opt.table_flow is False or opt.table_flow is True or opt.table_flow in ("fit", "rotation")):
-        raise YcbvssError(f"RefineOptions.table_flow must be False, True, 'fit' or 'rotation', got {opt.table_flow!r}",
+    if not isinstance(opt.table_flow, bool):
+        raise YcbvssError(f"RefineOptions.table_flow must be True or False, got {opt.table_flow!r}",
+                          where=f"scene {scene.scene_id}")
+    if opt.table_levels not in ("finest", "all"):
+        raise YcbvssError(f"RefineOptions.table_levels must be 'finest' or 'all', got {opt.table_levels!r}",
                           where=f"scene {scene.scene_id}")
     if not (isinstance(opt.table_points, int) and not isinstance(opt.table_points, bool) and opt.table_points >= 50):
         raise YcbvssError(f"RefineOptions.table_points must be an integer >= 50, got {opt.table_points!r}",

@@ -1,21 +1,28 @@
-"""The static table under the objects as a cue to the camera motion (``RefineOptions.table_flow``).
+"""The static table under the objects as a cue to the cameras' relative rotations
+(``RefineOptions.table_flow``).
 
-With free cameras and a 20-degree viewing baseline, the objects alone fix the cameras' rotation
-only weakly: a camera path turned a little less with a deeper scene (the bas-relief ambiguity)
+With free cameras and a 20-degree viewing baseline the objects alone fix the turn of the camera
+path only weakly: a path turned a little less with a deeper scene (the bas-relief ambiguity)
 explains their images almost as well, and the objects' small apparent-size biases pick a point
 along it (suite medium-1 from the exact GT: every object recedes, up to 2.3 mm). YCB-V's objects
 stand on a table that fills the rest of the image. Its texture moves between two views by the
-homography of a plane, which fixes the relative rotation regardless of the scene's depth relief.
+homography of a plane, H = R + t n^T in normalised coordinates, which gives the relative rotation R
+whatever the scene's scale and depth relief.
 
-- :func:`support_plane`: the table plane from the objects' current world poses -- the face of the
-  convex hull of all their points that has every camera above it and the most objects touching it
-  (an object resting on a table touches it with its lowest points).
-- :func:`plane_depth_mm`: z-depth (mm) of pixels' rays on that plane in one view.
-- :func:`table_matches`: sparse Lucas-Kanade matches of table corners between two images (OpenCV),
-  kept when the backward track returns within ``fb_px`` and away from the objects.
+- :func:`support_plane`: the plane the objects rest on, from their current poses (the face of the
+  convex hull of all their points with every camera above it and the most objects touching it);
+  it picks among the homography's decompositions.
+- :func:`plane_depth_mm`: z-depth of pixels' rays on a plane in one view.
+- :func:`table_matches`: Lucas-Kanade matches (OpenCV) of table corners clear of the objects.
+- :func:`table_rotation`: the homography's rotation with its covariance (RANSAC, decomposition,
+  Gauss-Newton on (R, t, n)).
+- :class:`TableRotationTerm`: the cameras' relative rotations held to those measurements, each by
+  its own covariance (a chi-square cost, cameras only).
 
-The matches join f_t as extra two-view transfer points (:class:`refine.terms.TemporalGroup`): each
-corner of view k is lifted onto the plane and must land on its match in view i.
+Lifting the table's corners onto a plane as extra f_t points (the plane from the objects' support,
+or fitted to the matches) was tried first: it ties the cameras' translation to the plane's
+distance, so the alternation freezes the world scale where it starts (session 44: from the paper's
+initial error, medium-1's depth error 1.39 -> 2.95 mm). The rotation alone carries no scale.
 """
 from __future__ import annotations
 
@@ -127,65 +134,6 @@ def table_matches(img_a: np.ndarray, img_b: np.ndarray, objects_a: np.ndarray, o
         keep = clear_b[xb[:, 1].round().astype(int), xb[:, 0].round().astype(int)]
         xa, xb = xa[keep], xb[keep]
     return xa, xb
-
-
-def _lift(K: np.ndarray, T_w2c: np.ndarray, m_w: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Camera points (N, 3) of pixels ``uv`` on the plane m . X = 1 (world; m = n / d)."""
-    R, t = T_w2c[:3, :3], T_w2c[:3, 3]
-    # plane in camera k: m_c . X_c = 1 with m_c = R m / (1 + m . R^T t)
-    m_c = R @ m_w / (1.0 + m_w @ (R.T @ t))
-    ray = np.c_[(uv[:, 0] - K[0, 2] - K[0, 1] * (uv[:, 1] - K[1, 2]) / K[1, 1]) / K[0, 0],
-                (uv[:, 1] - K[1, 2]) / K[1, 1], np.ones(len(uv))]
-    den = ray @ m_c
-    z = np.where(den > 1e-12, 1.0 / np.where(den > 1e-12, den, 1.0), 0.0)
-    return ray * z[:, None]
-
-
-def _transfer_residuals(m_w: np.ndarray, pairs: list, Ks: list, T_c: np.ndarray) -> np.ndarray:
-    out = []
-    for (k, i, xs, xd) in pairs:
-        Xk = _lift(Ks[k], T_c[k], m_w, xs)
-        T = T_c[i] @ np.linalg.inv(T_c[k])
-        Xi = Xk @ T[:3, :3].T + T[:3, 3]
-        z = np.where(Xi[:, 2] > 1e-9, Xi[:, 2], np.nan)
-        uv = np.c_[Ks[i][0, 0] * Xi[:, 0] / z + Ks[i][0, 1] * Xi[:, 1] / z + Ks[i][0, 2], Ks[i][1, 1] * Xi[:, 1] / z + Ks[i][1, 2]]
-        out.append((xd - uv).ravel())
-    return np.concatenate(out) if out else np.zeros(0)
-
-
-def fit_table_plane(pairs: list, Ks: list, T_c: np.ndarray, n_w: np.ndarray, d_w: float,
-                    iters: int = 5, scale_px: float = 1.0) -> tuple[np.ndarray, float, float]:
-    """The plane that best explains the table matches given the cameras: Gauss-Newton with
-    Cauchy weights (``scale_px``) on the transfer residuals of every pair ``(k, i, xs, xd)``
-    (corners of view k, their matches in view i), from the plane n . X = d (world, mm; d != 0,
-    i.e. not through the world origin). Returns (n, d, median |residual| px)."""
-    m = np.asarray(n_w, np.float64) / d_w
-    r = _transfer_residuals(m, pairs, Ks, T_c)
-    if len(r) == 0:
-        return np.asarray(n_w, np.float64), float(d_w), float("nan")
-    for _ in range(iters):
-        ok = np.isfinite(r)
-        w = 1.0 / (1.0 + (np.where(ok, r, 0.0) / scale_px) ** 2)
-        h = 1e-6 * max(np.linalg.norm(m), 1e-12)
-        J = np.stack([(_transfer_residuals(m + h * e, pairs, Ks, T_c) - r) / h for e in np.eye(3)], axis=1)
-        ok &= np.all(np.isfinite(J), axis=1)
-        A = (J[ok] * w[ok, None]).T @ J[ok]
-        g = (J[ok] * w[ok, None]).T @ r[ok]
-        try:
-            step = -np.linalg.solve(A + 1e-9 * np.trace(A) * np.eye(3), g)
-        except np.linalg.LinAlgError:
-            break
-        m_new = m + step
-        r_new = _transfer_residuals(m_new, pairs, Ks, T_c)
-        cost = lambda rr: float(np.sum(np.log1p((np.where(np.isfinite(rr), rr, 1e3) / scale_px) ** 2)))
-        if cost(r_new) >= cost(r):
-            break
-        m, r = m_new, r_new
-        if np.linalg.norm(step) < 1e-9 * np.linalg.norm(m):
-            break
-    d = np.sign(d_w) / np.linalg.norm(m)       # the same plane, its normal kept on the side it had
-    med = float(np.median(np.abs(r[np.isfinite(r)]))) if np.isfinite(r).any() else float("nan")
-    return m * d, float(d), med
 
 
 def _orthobasis(n: np.ndarray) -> np.ndarray:

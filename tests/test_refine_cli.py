@@ -128,3 +128,17 @@ def test_cli_refine_contact_options_refine_and_a_bad_one_is_one_line_error(bop_r
                "--out", str(tmp_path / "o2"), "--contact-weight", "-1"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc != 0 and len(err) == 1 and "contact_weight" in err[0] and "scene 1" in err[0], err
+
+
+def test_cli_refine_table_flow_refines(bop_root, tmp_path):
+    from ycbvss.io.results import read_bop19_csv
+
+    root, init, gt = bop_root
+    out = tmp_path / "out"
+    rc = main(["refine", "--dataset", str(root), "--split", "test", "--init", str(root / "init.csv"),
+               "--out", str(out), "--max-iters", "3", "--table-flow"])
+    assert rc == 0
+    est = read_bop19_csv(next(out.glob("*.csv")))
+    err0 = np.mean([np.linalg.norm(init[k][:3, 3] - gt[k][:3, 3]) for k in gt])
+    err1 = np.mean([np.linalg.norm(e.T_m2c[:3, 3] - gt[(e.im_id, e.obj_id)][:3, 3]) for e in est])
+    assert err1 < err0 / 2, (err0, err1)

@@ -355,6 +355,9 @@ def test_the_point_motion_ridge_by_viewing_baseline():
     assert {got[(False, g)] for g in ("narrow", "medium", "wide")} == {"none"}
     assert {got[(True, g)] for g in ("narrow", "medium", "wide")} == {"every"}
     assert {got[("finest", g)] for g in ("narrow", "medium", "wide")} == {"finest"}
+    # with the table holding the cameras' turn (table_flow), medium bundles get it at the finest level too
+    assert [_ridge_levels("by_baseline", g, True) for g in ("narrow", "medium", "wide")] == ["every", "finest", "finest"]
+    assert [_ridge_levels("narrow", g, True) for g in ("narrow", "medium", "wide")] == ["every", "none", "none"]
     from types import SimpleNamespace
 
     from ycbvss.errors import YcbvssError

@@ -76,37 +76,6 @@ def test_table_matches_follow_the_plane_homography_and_skip_the_objects():
     assert not near.any()
 
 
-def test_fit_table_plane_recovers_the_plane_from_matches_alone():
-    from ycbvss.refine.table import fit_table_plane
-    K = np.array([[1066.8, 0, 312.99], [0, 1067.5, 241.31], [0, 0, 1.0]])
-    n_true = np.array([0.05, -0.02, 1.0])
-    n_true /= np.linalg.norm(n_true)
-    d_true = -5.0
-    eyes = [np.array([x, -700.0, 650.0]) for x in (-120.0, 0.0, 130.0)]
-    T_w = [_look_at(e, np.array([0.0, 0, 0])) for e in eyes]
-    T_c = np.stack([T @ np.linalg.inv(T_w[0]) for T in T_w])     # world = the first camera
-    # the plane in that world
-    R0, t0 = T_w[0][:3, :3], T_w[0][:3, 3]
-    n_w = R0 @ n_true
-    d_w = d_true + n_w @ t0
-    rng = np.random.default_rng(0)
-    pairs = []
-    for k, i in ((0, 1), (1, 2)):
-        xs = np.c_[rng.uniform(20, 620, 400), rng.uniform(20, 460, 400)]
-        z = plane_depth_mm(K, T_c[k], n_w, d_w, xs)
-        Xk = backproject_px(K, xs, z)
-        T = T_c[i] @ np.linalg.inv(T_c[k])
-        Xi = Xk @ T[:3, :3].T + T[:3, 3]
-        xd = (Xi / Xi[:, 2:]) @ K.T
-        xd = xd[:, :2] + rng.normal(0, 0.05, (len(xs), 2))
-        xd[:20] += 15.0                                              # outliers
-        pairs.append((k, i, xs, xd))
-    tilt = trimesh.transformations.rotation_matrix(np.radians(3.0), [1, 0, 0])[:3, :3]
-    n0, d0, med = fit_table_plane(pairs, [K] * 3, T_c, tilt @ n_w, d_w * 1.02, iters=10)
-    assert np.degrees(np.arccos(np.clip(n0 @ n_w, -1, 1))) < 0.05 and abs(d0 - d_w) < 0.5
-    assert med < 0.1
-
-
 def _two_views_of_a_plane(rng, noise_px=0.05):
     K = np.array([[1066.8, 0, 312.99], [0, 1067.5, 241.31], [0, 0, 1.0]])
     T_w = [_look_at(np.array([x, -700.0, 650.0]), np.array([0.0, 0, 0])) for x in (-60.0, 60.0)]

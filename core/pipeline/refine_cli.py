@@ -49,6 +49,9 @@ def register(sub) -> None:
     p.add_argument("--contact-weight", type=float, default=None,
                    help="weight of the non-penetration term (per mm^2 of depth inside another object, per point "
                         "and view; default 0: off)")
+    p.add_argument("--table-flow", action="store_true",
+                   help="hold the cameras' relative rotations at the finest blur level to what the static table's "
+                        "homography between temporal neighbours measures (ycbvss.refine.table; default off)")
     p.set_defaults(func=_run)
 
 
@@ -96,6 +99,7 @@ def _run(args: argparse.Namespace) -> int:
     for k in ("alpha", "beta", "max_iters", "edge_contact_mm", "contact_weight"):
         if getattr(args, k) is not None:
             setattr(opt, k, getattr(args, k))
+    opt.table_flow = bool(args.table_flow)
     if not (opt.use_edge or opt.use_point):
         raise YcbvssError("at least one of the edge and point terms is needed (both disabled)")
     csv_init = None
