@@ -20,6 +20,7 @@ import numpy as np
 from ycbvss.eval.tables import Row, Table, write_table
 from ycbvss.geometry.so3 import exp_so3, log_so3
 from ycbvss.io.bop import load_bop_scene
+from ycbvss.io.ycbv import parse_videos
 from ycbvss.pipeline.suite import SUITES, clip_scene, clips_of, suite_models
 from ycbvss.refine.table import table_matches, table_rotation
 
@@ -29,14 +30,6 @@ def _objects_mask(root: Path, sid: int, f) -> np.ndarray:
     masks = [cv2.imread(str(root / "test" / f"{sid:06d}" / "mask" / f"{f.im_id:06d}_{j:06d}.png"), 0) > 0
              for j in range(len(f.instances))]
     return np.logical_or.reduce(masks)
-
-
-def _ids(spec: str) -> list[int]:
-    out = []
-    for part in spec.split(","):
-        a, _, b = part.partition("-")
-        out += list(range(int(a), int(b or a) + 1))
-    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -49,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, required=True)
     a = ap.parse_args(argv)
     rows, all_err, all_chi = [], [], []
-    for sid in _ids(a.scenes):
+    for sid in parse_videos(a.scenes, "scene list"):
         spec = next(s for s in SUITES["ycbv21"] if s.scene_id == sid)
         clips = clips_of(spec, (a.kind,))
         if not clips:

@@ -32,7 +32,7 @@ import cv2
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from ..geometry.so3 import exp_so3, log_so3
+from ..geometry.so3 import exp_so3, hat, log_so3, rotation_angle_deg
 
 TOUCH_MM = 2.0          # an object touches a plane when its lowest point lies within this (mm)
 ABOVE_MM = 50.0         # every camera centre at least this far above the plane (mm)
@@ -181,19 +181,19 @@ def table_rotation(xs: np.ndarray, xd: np.ndarray, K_k: np.ndarray, K_i: np.ndar
     if int(inl.sum()) < min_inliers:
         return None
     Hn = np.linalg.inv(K_i) @ Hp @ K_k
+    if np.linalg.det(Hn) < 0:
+        return None
     Hn /= np.linalg.svd(Hn, compute_uv=False)[1]
     _, Rs, ts, ns = cv2.decomposeHomographyMat(Hn, np.eye(3))
 
     def score(r, nn):
-        s = rotation_angle(r @ R_guess.T)
+        s = np.radians(float(rotation_angle_deg(r @ R_guess.T)))
         if n_guess is not None:
             s += np.arccos(np.clip(abs(float(nn.ravel() @ n_guess)), -1.0, 1.0))
         return s
     best = min(range(len(Rs)), key=lambda j: score(Rs[j], ns[j]))
     R0, n0 = np.asarray(Rs[best], np.float64), np.asarray(ns[best], np.float64).ravel()
     t0 = np.asarray(ts[best], np.float64).ravel()
-    if np.linalg.det(Hn) < 0:
-        return None
     B = _orthobasis(n0)
     a = np.c_[xs[inl], np.ones(int(inl.sum()))] @ np.linalg.inv(K_k).T
     b = xd[inl]
@@ -222,11 +222,6 @@ def table_rotation(xs: np.ndarray, xd: np.ndarray, K_k: np.ndarray, K_i: np.ndar
     return R, cov[:3, :3], int(inl.sum()), med
 
 
-def rotation_angle(R: np.ndarray) -> float:
-    """Angle (rad) of a rotation matrix."""
-    return float(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))
-
-
 @dataclass
 class TableRotation:
     """One measured relative rotation: cameras i and k (view indices), R_ik measured, and the
@@ -252,9 +247,11 @@ class TableRotationTerm:
     def n_obs(self) -> int:
         return 3 * len(self.groups)
 
-    def _residual(self, pb, p: TableRotation) -> tuple[np.ndarray, np.ndarray]:
+    def _residual(self, pb, p: TableRotation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(whitened residual W phi, phi = log(R R_meas^T), R = R_i R_k^T) of one pair."""
         R = pb.T_c[p.i][:3, :3] @ pb.T_c[p.k][:3, :3].T
-        return p.W @ log_so3(R @ p.R_ik.T), R
+        phi = log_so3(R @ p.R_ik.T)
+        return p.W @ phi, phi, R
 
     def cost(self, pb) -> float:
         return self.weight * float(sum(float(e @ e) for e in (self._residual(pb, p)[0] for p in self.groups)))
@@ -263,11 +260,11 @@ class TableRotationTerm:
         from .terms import Linearization
         total, out = 0.0, []
         for p in self.groups:
-            e, R = self._residual(pb, p)
+            e, phi, R = self._residual(pb, p)
             total += float(e @ e)
             Ji, Jk = np.zeros((3, 6)), np.zeros((3, 6))
             # left increments (v, w): R_i <- exp(w_i) R_i moves e by J_l^-1(e) w_i, R_k's by -J_l^-1(e) R w_k
-            Jl = p.W @ _inv_left_jacobian(log_so3(R @ p.R_ik.T))
+            Jl = p.W @ _inv_left_jacobian(phi)
             Ji[:, 3:] = Jl
             Jk[:, 3:] = -Jl @ R
             pack = lambda J: np.stack([J[0:2], np.stack([J[2], np.zeros(6)])])   # 3 residuals as two 2-rows
@@ -281,7 +278,7 @@ class TableRotationTerm:
 def _inv_left_jacobian(phi: np.ndarray) -> np.ndarray:
     """Inverse left Jacobian of SO(3) at the rotation vector ``phi``: log(exp(d) exp(phi)) ~ phi + J^-1 d."""
     th = float(np.linalg.norm(phi))
-    P = np.array([[0, -phi[2], phi[1]], [phi[2], 0, -phi[0]], [-phi[1], phi[0], 0]])
+    P = hat(phi)
     if th < 1e-8:
         return np.eye(3) - 0.5 * P
     return np.eye(3) - 0.5 * P + (1.0 / th ** 2 - (1 + np.cos(th)) / (2 * th * np.sin(th))) * (P @ P)
