@@ -34,7 +34,8 @@ from .shading import lit_template, view_lighting
 from .threads import single_threaded_kernels
 from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
                         area_template, render_view, select_edge_samples, view_edge_candidates, with_area)
-from .table import TableRotation, TableRotationTerm, support_plane, table_matches, table_rotation, whitening
+from .table import (TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
+                    table_rotation, whitening)
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
@@ -279,6 +280,11 @@ class RefineOptions:
     table_points: int = 1000
     table_weight: float = 1.0
     table_levels: str = "finest"
+    # with table_flow, also pair each keyframe with the earliest keyframe turned at most this far
+    # from it (deg; refine.table.span_pairs; 0: the temporal pairs only). A homography's rotation
+    # error hardly grows with the pair's turn, so the far pair fixes the path's turn to a smaller
+    # fraction of it. Every pair is matched guided by the support plane's predicted homography
+    table_span_deg: float = 0.0
     min_visible_px: int = 30
     n_init_points: int = 200
     compute_uncertainty: bool = True
@@ -398,6 +404,7 @@ class _Stage:
         self._me: dict[int, np.ndarray] = {}
         self._flows: dict[tuple[int, int], tuple] = {}
         self._table_rot: dict[tuple[int, int], object] = {}   # (k, i) -> TableRotation or None
+        self._table_span: list | None = None                   # refine.table.span_pairs, once chosen
         self.visible: set[tuple[int, int]] = set()
         # renders of the coarse-move check at the current poses, taken by the next render() of the
         # same view when its poses are still exactly these (view -> (poses, ViewRender))
@@ -684,18 +691,25 @@ class _Stage:
         pb, opt = self.pb, self.opt
         plane = None
         rots = []
-        for (k, i) in self.pairs:
+        pairs = list(self.pairs)
+        if opt.table_span_deg > 0:
+            if self._table_span is None:      # chosen once, from the estimate at the first finest level
+                self._table_span = span_pairs(pb.T_c[:, :3, :3], self.pairs, opt.table_span_deg)
+            pairs += self._table_span
+        for (k, i) in pairs:
             if (k, i) not in self._table_rot:
                 for v in (k, i):
                     if v not in renders:
                         renders[v] = self.render(v)
-                xs, xd = table_matches(pb.views[k].image, pb.views[i].image, renders[k].instance > 0,
-                                       renders[i].instance > 0, opt.table_points)
                 if plane is None:
                     known = [j for j in range(len(pb.obj_ids)) if pb.obj_known[j]]
                     pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
                     centres = np.stack([inv_T(T)[:3, 3] for T in pb.T_c])
                     plane = (support_plane(pts, centres) if pts else None) or False
+                H_pred = predicted_homography(pb.views[k].K, pb.views[i].K, pb.T_c[k], pb.T_c[i], plane[0],
+                                              plane[1]) if plane else None
+                xs, xd = table_matches(pb.views[k].image, pb.views[i].image, renders[k].instance > 0,
+                                       renders[i].instance > 0, opt.table_points, H_pred=H_pred)
                 n_k = pb.T_c[k][:3, :3] @ plane[0] if plane else None
                 R_guess = pb.T_c[i][:3, :3] @ pb.T_c[k][:3, :3].T
                 m = table_rotation(xs, xd, pb.views[k].K, pb.views[i].K, R_guess, n_k)
@@ -1822,7 +1836,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not (isinstance(opt.table_points, int) and not isinstance(opt.table_points, bool) and opt.table_points >= 50):
         raise YcbvssError(f"RefineOptions.table_points must be an integer >= 50, got {opt.table_points!r}",
                           where=f"scene {scene.scene_id}")
-    for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm", "table_weight"):
+    for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):
             raise YcbvssError(f"RefineOptions.{name} must be a finite number >= 0, got {v!r}", where=f"scene {scene.scene_id}")

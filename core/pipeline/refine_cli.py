@@ -52,6 +52,9 @@ def register(sub) -> None:
     p.add_argument("--table-flow", action="store_true",
                    help="hold the cameras' relative rotations at the finest blur level to what the static table's "
                         "homography between temporal neighbours measures (ycbvss.refine.table; default off)")
+    p.add_argument("--table-span-deg", type=float, default=None,
+                   help="with --table-flow, also pair each keyframe with the earliest keyframe turned at most this "
+                        "far (deg) from it, so far pairs fix the camera path's turn (default 0: temporal pairs only)")
     p.set_defaults(func=_run)
 
 
@@ -96,7 +99,7 @@ def _run(args: argparse.Namespace) -> int:
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)
     opt = RefineOptions(use_edge=not args.no_edge, use_point=not args.no_point, use_temporal=not args.no_temporal,
                         keyframe_step=args.keyframe_step, fix_cameras=args.known_cameras)
-    for k in ("alpha", "beta", "max_iters", "edge_contact_mm", "contact_weight"):
+    for k in ("alpha", "beta", "max_iters", "edge_contact_mm", "contact_weight", "table_span_deg"):
         if getattr(args, k) is not None:
             setattr(opt, k, getattr(args, k))
     opt.table_flow = bool(args.table_flow)
