@@ -276,7 +276,7 @@ class RefineOptions:
     # scene's scale. At the finest blur level only (table_levels "finest"; "all": every level). With
     # object_ridge "by_baseline" it also puts the point-motion ridge at the finest level of medium
     # bundles (_ridge_levels). Off by default (measured in bench/results/ycbv21/README.md, session 44)
-    table_flow: bool = False
+    table_flow: bool | str = False    # True / False, or a comma-separated list of baseline groups (per scene)
     table_points: int = 1000
     table_weight: float = 1.0
     table_levels: str = "finest"
@@ -1710,6 +1710,9 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     group = _keyframe_group(pb0.T_c[kf], pb0.T_m[known], opt.min_baseline_deg)[2] if np.any(known) else None
     if isinstance(opt.edge_rim_depth, str):      # resolved once per scene from the keyframes' group
         opt = dc_replace(opt, edge_rim_depth=group in _groups(opt.edge_rim_depth))
+    if isinstance(opt.table_flow, str):          # likewise
+        opt = dc_replace(opt, table_flow=group in _groups(opt.table_flow))
+    stats["table_flow"] = bool(opt.table_flow)
     stats["edge_rim_depth"] = bool(opt.edge_rim_depth)
     if opt.template_supersample > 1 and group not in _groups(opt.supersample_groups):
         opt = dc_replace(opt, template_supersample=1)
@@ -1827,9 +1830,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):
         raise YcbvssError(f"RefineOptions.template_supersample must be an integer 1-8, got {opt.template_supersample!r}",
                           where=f"scene {scene.scene_id}")
-    if not isinstance(opt.table_flow, bool):
-        raise YcbvssError(f"RefineOptions.table_flow must be True or False, got {opt.table_flow!r}",
-                          where=f"scene {scene.scene_id}")
+    if not isinstance(opt.table_flow, (bool, str)):
+        raise YcbvssError(f"RefineOptions.table_flow must be True, False or a list of baseline groups, got "
+                          f"{opt.table_flow!r}", where=f"scene {scene.scene_id}")
     if opt.table_levels not in ("finest", "all"):
         raise YcbvssError(f"RefineOptions.table_levels must be 'finest' or 'all', got {opt.table_levels!r}",
                           where=f"scene {scene.scene_id}")
@@ -1842,6 +1845,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
             raise YcbvssError(f"RefineOptions.{name} must be a finite number >= 0, got {v!r}", where=f"scene {scene.scene_id}")
     if not isinstance(opt.edge_rim_depth, bool):
         group_specs["edge_rim_depth"] = opt.edge_rim_depth
+    if isinstance(opt.table_flow, str):
+        group_specs["table_flow"] = opt.table_flow
     for name, spec in group_specs.items():
         try:
             _groups(spec)

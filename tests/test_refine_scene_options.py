@@ -129,3 +129,21 @@ def test_a_bad_contact_option_is_an_error_naming_it(name, bad):
 def test_a_bad_table_option_is_an_error_naming_it(kw):
     with pytest.raises(YcbvssError, match=next(iter(kw))):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**kw))
+
+
+@pytest.mark.parametrize("spec, on", [("medium", {"medium"}), ("medium,wide", {"medium", "wide"}), ("", set()),
+                                      (True, {"wide", "medium", "narrow"}), (False, set())])
+def test_table_flow_is_resolved_per_scene_from_the_keyframes_baseline_group(spec, on):
+    known = np.ones(3, bool)
+    opt = RefineOptions(table_flow=spec)
+    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
+        stats: dict = {}
+        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+        assert got.table_flow is (name in on)
+        assert stats["table_flow"] is (name in on)
+    assert opt.table_flow == spec
+
+
+def test_an_unknown_table_flow_group_is_an_error_naming_the_option():
+    with pytest.raises(YcbvssError, match="table_flow"):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(table_flow="long"))
