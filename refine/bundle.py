@@ -275,7 +275,9 @@ class RefineOptions:
     # weak on 20-degree baselines (their apparent-size biases then pick the depth relief), not the
     # scene's scale. At the finest blur level only (table_levels "finest"; "all": every level). With
     # object_ridge "by_baseline" it also puts the point-motion ridge at the finest level of medium
-    # bundles (_ridge_levels). Off by default (measured in bench/results/ycbv21/README.md, session 44)
+    # bundles (_ridge_levels). Off by default (bench/results/ycbv21/README.md, sessions 44-45: with guided
+    # matching and span pairs medium depth gains, but the finest-level ridge let a foam brick end 10.8 mm off
+    # `converged`; short clips lose depth)
     table_flow: bool | str = False    # True / False, or a comma-separated list of baseline groups (per scene)
     table_points: int = 1000
     table_weight: float = 1.0
