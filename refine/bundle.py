@@ -267,8 +267,8 @@ class RefineOptions:
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1
-    # the static table as a cue to the cameras' relative rotations (refine.table): for each temporal
-    # pair, corners of the table (table_points, clear of the objects) tracked into the neighbour
+    # the static table as a cue to the cameras' relative rotations (refine.table), in the keyframe
+    # bundle: for each temporal pair, corners of the table (table_points, clear of the objects) tracked into the neighbour
     # (OpenCV Lucas-Kanade), the rotation of the table plane's homography measured with its
     # covariance, and the pair's relative camera rotation held to it (TableRotationTerm, table_weight
     # x chi-square). Scale-free: it fixes the turn of the camera path that the objects alone leave
@@ -513,7 +513,9 @@ class _Stage:
             terms.append(self._new_point_term(renders, vis))
         if opt.use_temporal and opt.beta > 0 and self.pairs:
             terms.append(self._temporal_term(renders))
-        if opt.table_flow and self.pairs and (self.at_finest or opt.table_levels == "all"):
+        # the keyframe bundle only: in the camera-only stage of the non-keyframes (pairs a frame apart,
+        # objects fixed) it left every object of the long-1 clip ~2 mm too close (session 45)
+        if opt.table_flow and self.pairs and self.name == "keyframes" and (self.at_finest or opt.table_levels == "all"):
             terms.append(self._table_rotation_term(renders))
         if opt.contact_weight > 0 and len(self.pb.obj_ids) > 1:
             surfaces, points = self.contact_surfaces
