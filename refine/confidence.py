@@ -313,6 +313,7 @@ class PoseStatus:
 
 
 # the status reason of an object held at an earlier pose (refine.bundle._Stage._verify_coarse_moves)
+DRIFT_REASON = "still drifting one way at the iteration cap"
 HELD_REASON = "held where it was visible: refining it hid it in every view"
 
 
@@ -321,7 +322,8 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
              shifted_px: float = 0.0, shift_limit_px: float = float("inf"), turn_gain: float = float("nan"),
              turn_fit: float = float("nan"), turn_label: str = "", own_contour: bool = True,
              worst_contour_px: float = float("nan"), held_hidden: bool = False,
-             interior_ncc: float = float("nan"), texture: float = float("nan")) -> PoseStatus:
+             interior_ncc: float = float("nan"), texture: float = float("nan"),
+             drifting: bool = False) -> PoseStatus:
     """Status and confidence of one pose (see the module docstring for the rules). ``contour_px``
     is measured in an image ``width_px`` wide; the thresholds ``OK_PX`` / ``FAIL_PX`` hold at
     ``REF_WIDTH_PX`` (YCB-V's 640 px) and scale with the width, so an offset means the same
@@ -331,7 +333,11 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
     (``refine.bundle._Stage._verify_coarse_moves``): uncertain, confidence halved.
     ``interior_ncc`` / ``texture``: the refined pose's interior texture fit and its template's
     texture share (:mod:`ycbvss.refine.turn_check`); a textured object that fits badly is
-    uncertain, confidence halved (:func:`ycbvss.refine.turn_check.texture_mismatch`)."""
+    uncertain, confidence halved (:func:`ycbvss.refine.turn_check.texture_mismatch`).
+    ``drifting``: the object still moved one way (more than ``RefineOptions.extend_mm`` per outer
+    iteration, in the previous iteration's direction) when the finest level's iteration cap ended
+    the refinement (``refine.bundle._Stage._iterate``): uncertain, confidence x 0.7 -- however small
+    that last step was against its sigma, a pose that has not stopped has not converged."""
     if numerical_failure:
         return PoseStatus("failed", 0.0, "numerical failure")
     reasons = []
@@ -355,7 +361,9 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         reasons.append(f"still moving ({moved_add_mm:.2f} mm in the last iteration)")
     if not observed:
         reasons.append("no image terms (placed by the scene consistency only)")
-    if moving or not observed:
+    if drifting:
+        reasons.append(DRIFT_REASON)
+    if moving or not observed or drifting:
         conf *= 0.7
     if turned_deg > MAX_TURN_DEG:
         reasons.append(f"turned {turned_deg:.0f} deg from its initial pose")

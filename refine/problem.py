@@ -100,12 +100,13 @@ class BundleProblem:
         (first order: a world point X moves by v + w x X). With c, C the points' centroid and
         covariance in the world: |v + w x c|^2 + w^T (tr(C) I - C) w. A translation is charged by
         its length, a turn by what it moves the object's points -- independent of how far the
-        object is from the world origin (the first camera). Empty without ``obj_moments``."""
+        object is from the world origin (the first camera). Empty without ``obj_moments``; an
+        object whose entry is None keeps the solver's eps * I ridge."""
         if self.obj_moments is None:
             return []
         out = []
         for j, b in enumerate(self.obj_block):
-            if b < 0:
+            if b < 0 or self.obj_moments[j] is None:
                 continue
             c_m, C_m = self.obj_moments[j]
             R, t = self.T_m[j][:3, :3], self.T_m[j][:3, 3]
