@@ -353,8 +353,13 @@ class RefineOptions:
     # a turn about its own centre (_Stage.run). Suite medium-4, seed 5, with the table: the foam brick
     # on the sugar box, 2.2 deg off at the finest level's start, was turned 0.23-0.6 deg per outer
     # iteration by f_edge alone (point, temporal and table terms ~0), every re-sampling of its edges
-    # leaving the minimum another step further, to 15.9 deg (ADD 10.8 mm) at the cap
+    # leaving the minimum another step further, to 15.9 deg (ADD 10.8 mm) at the cap; with the
+    # fallback 1.0 deg (ADD 2.8 mm). Only for an object the level carried more than ridge_fallback_mm
+    # (RMS displacement of its points) from its start: the finest level corrects sub-pixel errors, so
+    # that far is a runaway (the brick: ~14 mm); a slow creep at the cap is only flagged (status
+    # 'uncertain', see refine.confidence.classify's ``drifting``), not re-run
     ridge_fallback: bool = True
+    ridge_fallback_mm: float = 3.0
     object_ridge: bool | str = "by_baseline"  # False: never; True: every level; "finest": the finest blur level only; "narrow": narrow-baseline bundles only; "by_baseline": see above
     pose_tol_mm: float = 0.05         # converged: the last outer iteration moved no pose more than this
     pose_tol_deg: float = 0.02
@@ -959,12 +964,17 @@ class _Stage:
             if done:
                 return terms
             if li == len(sigmas) - 1 and drift and pb.obj_moments is not None and opt.ridge_fallback:
-                # objects still sliding one way at the iteration cap under the point-motion ridge:
-                # back to this level's start, with the stalling world-origin ridge, and the level again
-                back = sorted(drift)
+                # objects still sliding one way at the iteration cap under the point-motion ridge and
+                # carried far by it at this level: back to the level's start, with the stalling
+                # world-origin ridge, and the level again
+                far = _rms_point_moves_mm(self._T_m_starts[-1], pb.T_m, self.moments)
+                back = sorted(j for j in drift if far[j] > opt.ridge_fallback_mm and pb.obj_moments[j] is not None)
+            else:
+                back = []
+            if back:
                 self.stats.setdefault("ridge_fallback", []).append([int(pb.obj_ids[j]) for j in back])
                 pb.T_m[back] = self._T_m_starts[-1][back]
-                pb.obj_moments = [None if j in drift else m for j, m in enumerate(pb.obj_moments)]
+                pb.obj_moments = [None if j in back else m for j, m in enumerate(pb.obj_moments)]
                 done, terms, lam, outer2, drift = self._iterate(fields, n_outer, n_cap, sopt, lam, sigma, n_built)
                 n_built += outer2 + 1
                 outer += outer2 + 1
@@ -1070,6 +1080,19 @@ def _object_point_moves(T_a: np.ndarray, T_b: np.ndarray, moments: list) -> np.n
         c, C = moments[j]
         out[j, :3] = (T_b[j][:3, :3] @ c + T_b[j][:3, 3]) - (T_a[j][:3, :3] @ c + T_a[j][:3, 3])
         out[j, 3:] = log_so3(T_b[j][:3, :3] @ T_a[j][:3, :3].T) * np.sqrt(max(np.trace(C), 0.0))
+    return out
+
+
+def _rms_point_moves_mm(T_a: np.ndarray, T_b: np.ndarray, moments: list) -> np.ndarray:
+    """Per object (m,) the RMS displacement (mm) of its model points between world poses ``T_a`` and
+    ``T_b`` (m, 4, 4): sqrt(|centroid move|^2 + tr(dR C dR^T)), dR = R_b - R_a, with
+    ``moments[j]`` = (centroid, covariance) of object j's points (mm, mm^2)."""
+    out = np.zeros(len(T_a))
+    for j in range(len(T_a)):
+        c, C = moments[j]
+        dR = T_b[j][:3, :3] - T_a[j][:3, :3]
+        dc = dR @ c + T_b[j][:3, 3] - T_a[j][:3, 3]
+        out[j] = np.sqrt(float(dc @ dc) + max(float(np.trace(dR @ C @ dR.T)), 0.0))
     return out
 
 
@@ -1904,7 +1927,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not (isinstance(opt.table_points, int) and not isinstance(opt.table_points, bool) and opt.table_points >= 50):
         raise YcbvssError(f"RefineOptions.table_points must be an integer >= 50, got {opt.table_points!r}",
                           where=f"scene {scene.scene_id}")
-    for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg"):
+    for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
+                 "ridge_fallback_mm"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):
             raise YcbvssError(f"RefineOptions.{name} must be a finite number >= 0, got {v!r}", where=f"scene {scene.scene_id}")
