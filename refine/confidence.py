@@ -38,14 +38,17 @@ inside its silhouette better (:func:`ycbvss.refine.turn_check.turned_wrong`), a 
 fits the texture inside its silhouette badly at the refined pose
 (:func:`ycbvss.refine.turn_check.texture_mismatch`), or its projected centre moved farther from the initial poses' than
 :func:`shift_limit_px` allows (median over views), the pose was still
-moving, the object had no image terms, or no visible contour of its own (a view's offset over
+moving, the object was still drifting one way (more than ``RefineOptions.extend_mm`` per outer
+iteration, in the previous iteration's direction) when the finest level's iteration cap ended the
+keyframe bundle, the object had no image terms, or no visible contour of its own (a view's offset over
 its other objects can fail a pose, not verify it); ``converged`` otherwise. ``converged`` therefore means:
-the pose stopped (last outer step below ``MOVE_TOL_MM`` / ``MOVE_TOL_DEG``), its silhouette lies on
+the pose stopped (last outer step below ``MOVE_TOL_MM`` / ``MOVE_TOL_DEG`` and not drifting one way at
+the cap), its silhouette lies on
 image edges and its calibrated uncertainty is small.
 
 Confidence in [0, 1]: ``q_contour * q_sigma`` with q_contour falling linearly from 1 at
 ``OK_PX`` to 0 at ``FAIL_PX`` and q_sigma = exp(-sigma_add_mm / CONF_SIGMA_MM); times 0.7 when
-still moving or unobserved; at most 0.1 when failed. It is the BOP19 ``score`` of the pose.
+still moving, drifting at the cap or unobserved; at most 0.1 when failed. It is the BOP19 ``score`` of the pose.
 """
 from __future__ import annotations
 
