@@ -357,7 +357,10 @@ class RefineOptions:
     # fallback 1.0 deg (ADD 2.8 mm). Only for an object the level carried more than ridge_fallback_mm
     # (RMS displacement of its points) from its start: the finest level corrects sub-pixel errors, so
     # that far is a runaway (the brick: ~14 mm); a slow creep at the cap is only flagged (status
-    # 'uncertain', see refine.confidence.classify's ``drifting``), not re-run
+    # 'uncertain', see refine.confidence.classify's ``drifting``), not re-run. Only where the
+    # point-motion ridge is at the finest level alone (medium bundles with the table, wide ones): a
+    # narrow bundle has it at every level because the stalled turn there is taken as a lateral shift,
+    # and on the short clips (seed 0) the fallback turned short-1's banana 4.5 -> 6.5 deg
     ridge_fallback: bool = True
     ridge_fallback_mm: float = 3.0
     object_ridge: bool | str = "by_baseline"  # False: never; True: every level; "finest": the finest blur level only; "narrow": narrow-baseline bundles only; "by_baseline": see above
@@ -963,7 +966,7 @@ class _Stage:
             n_built += outer + 1
             if done:
                 return terms
-            if li == len(sigmas) - 1 and drift and pb.obj_moments is not None and opt.ridge_fallback:
+            if li == len(sigmas) - 1 and drift and self.ridge_finest and pb.obj_moments is not None and opt.ridge_fallback:
                 # objects still sliding one way at the iteration cap under the point-motion ridge and
                 # carried far by it at this level: back to the level's start, with the stalling
                 # world-origin ridge, and the level again

@@ -451,15 +451,17 @@ def test_classify_a_pose_still_drifting_at_the_cap_is_uncertain():
     assert drift.confidence == pytest.approx(0.7 * base.confidence)
 
 
-@pytest.mark.parametrize("fallback,slide_mm", [(True, 7.0), (False, 7.0), (True, 1.0)])
+@pytest.mark.parametrize("fallback,slide_mm,finest", [(True, 7.0, True), (False, 7.0, True), (True, 1.0, True),
+                                                     (True, 7.0, False)])
 def test_an_object_drifting_at_the_cap_runs_the_finest_level_again_with_the_stalling_ridge(monkeypatch, fallback,
-                                                                                           slide_mm):
+                                                                                           slide_mm, finest):
     """The finest level's control flow (its outer iterations faked): an object still drifting at
     the cap under the point-motion ridge goes back to the level's start and the level runs again
     with the world-origin ridge on that object only (RefineOptions.ridge_fallback); an object still
     drifting then is reported (drifting_objects -> status 'uncertain'). Without the fallback, or
     when the level carried the object less than ridge_fallback_mm (3 mm: a creep, not a runaway),
-    the drifting object is reported at once."""
+    the drifting object is reported at once; so too in a bundle with the point-motion ridge at every
+    level (narrow baselines), where the stalled turn is no fallback."""
     import ycbvss.refine.bundle as B
     from ycbvss.refine.problem import BundleProblem, View, model_moments
 
@@ -469,7 +471,9 @@ def test_an_object_drifting_at_the_cap_runs_the_finest_level_again_with_the_stal
     pb = BundleProblem([View(0, np.eye(3), 640, 480)], [4, 9], np.eye(4)[None], T_m)
     st = object.__new__(B._Stage)
     st.pb, st.opt, st.stats, st.log = pb, B.RefineOptions(verify_coarse=False, ridge_fallback=fallback), {}, []
-    st.term_views, st.ridge_finest, st.drifting_objects = [], True, set()
+    st.term_views, st.ridge_finest, st.drifting_objects = [], finest, set()
+    if not finest:
+        pb.obj_moments = [model_moments(pts)] * 2    # the ridge at every level, set by the stage's setup
     st._light, st._flows, st._pending = {}, {}, {}
     st.__dict__["moments"] = [model_moments(pts)] * 2
     calls = []
@@ -481,7 +485,7 @@ def test_an_object_drifting_at_the_cap_runs_the_finest_level_again_with_the_stal
 
     monkeypatch.setattr(st, "_iterate", fake_iterate)
     st.run([1.0])
-    if fallback and slide_mm > st.opt.ridge_fallback_mm:
+    if fallback and finest and slide_mm > st.opt.ridge_fallback_mm:
         # the second pass starts from the level's start, object 4 alone without the point-motion ridge
         assert calls == [(0.0, [False, False]), (0.0, [True, False])]
         assert st.stats["ridge_fallback"] == [[4]]
