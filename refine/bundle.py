@@ -275,10 +275,13 @@ class RefineOptions:
     # weak on 20-degree baselines (their apparent-size biases then pick the depth relief), not the
     # scene's scale. At the finest blur level only (table_levels "finest"; "all": every level). With
     # object_ridge "by_baseline" it also puts the point-motion ridge at the finest level of medium
-    # bundles (_ridge_levels). Off by default (bench/results/ycbv21/README.md, sessions 44-45: with guided
-    # matching and span pairs medium depth gains, but the finest-level ridge let a foam brick end 10.8 mm off
-    # `converged`; short clips lose depth)
-    table_flow: bool | str = False    # True / False, or a comma-separated list of baseline groups (per scene)
+    # bundles (_ridge_levels). On medium-baseline bundles by default since session 46
+    # (bench/results/ycbv21/README.md, sessions 44-46): suite medium clips 1-9, paper init, seeds 0 and 5,
+    # with span pairs (table_span_deg 30) and the ridge fallback, tx/ty/tz/R/PRJ 0.151/0.148/0.693/0.332/0.198
+    # -> see that README's session 46 section; short clips lose depth with it (seed 0 tz 1.38 -> 1.99 mm: a
+    # 0.008 deg error over a 0.9 deg step is ~1 % of the relief), long ones gain nothing (long 1-3, seeds 0
+    # and 5: 0.072/0.049/0.302/0.121/0.091 -> 0.073/0.050/0.289/0.122/0.090, 18 -> 18 objects)
+    table_flow: bool | str = "medium"  # True / False, or a comma-separated list of baseline groups (per scene)
     table_points: int = 1000
     table_weight: float = 1.0
     table_levels: str = "finest"
@@ -286,7 +289,7 @@ class RefineOptions:
     # from it (deg; refine.table.span_pairs; 0: the temporal pairs only). A homography's rotation
     # error hardly grows with the pair's turn, so the far pair fixes the path's turn to a smaller
     # fraction of it. Every pair is matched guided by the support plane's predicted homography
-    table_span_deg: float = 0.0
+    table_span_deg: float = 30.0
     min_visible_px: int = 30
     n_init_points: int = 200
     compute_uncertainty: bool = True

@@ -38,8 +38,9 @@ WIDE, MEDIUM, NARROW = [0, 20, 40, 60], [0, 10, 20], [0, 3, 6]     # baselines 6
                                              ("", set()), ("narrow", {"narrow"})])
 def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
     known = np.ones(3, bool)
-    # edge_rim_depth a bool, template_supersample 1: nothing else to resolve
-    opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1)
+    # edge_rim_depth and table_flow bools, template_supersample 1: nothing else to resolve
+    opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1,
+                        table_flow=False)
     for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
         stats: dict = {}
         got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)

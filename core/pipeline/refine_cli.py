@@ -49,12 +49,14 @@ def register(sub) -> None:
     p.add_argument("--contact-weight", type=float, default=None,
                    help="weight of the non-penetration term (per mm^2 of depth inside another object, per point "
                         "and view; default 0: off)")
-    p.add_argument("--table-flow", action="store_true",
-                   help="hold the cameras' relative rotations at the finest blur level to what the static table's "
-                        "homography between temporal neighbours measures (ycbvss.refine.table; default off)")
+    p.add_argument("--table-flow", nargs="?", const="all", default=None, metavar="GROUPS",
+                   help="hold the cameras' relative rotations at the finest blur level of the keyframe bundle to "
+                        "what the static table's homography measures (ycbvss.refine.table): 'all', 'none' or a "
+                        "comma-separated list of viewing-baseline groups (narrow, medium, wide); bare: 'all' "
+                        "(default: 'medium', RefineOptions.table_flow)")
     p.add_argument("--table-span-deg", type=float, default=None,
-                   help="with --table-flow, also pair each keyframe with the earliest keyframe turned at most this "
-                        "far (deg) from it, so far pairs fix the camera path's turn (default 0: temporal pairs only)")
+                   help="with the table, also pair each keyframe with the earliest keyframe turned at most this "
+                        "far (deg) from it, so far pairs fix the camera path's turn (default 30; 0: temporal pairs only)")
     p.set_defaults(func=_run)
 
 
@@ -102,7 +104,8 @@ def _run(args: argparse.Namespace) -> int:
     for k in ("alpha", "beta", "max_iters", "edge_contact_mm", "contact_weight", "table_span_deg"):
         if getattr(args, k) is not None:
             setattr(opt, k, getattr(args, k))
-    opt.table_flow = bool(args.table_flow)
+    if args.table_flow is not None:
+        opt.table_flow = {"all": True, "none": False}.get(args.table_flow, args.table_flow)
     if not (opt.use_edge or opt.use_point):
         raise YcbvssError("at least one of the edge and point terms is needed (both disabled)")
     csv_init = None
