@@ -42,8 +42,10 @@ def test_subpixel_recovery_from_5px_init_textured_and_textureless(scene4):
     res = refine_scene(ps.scene, ps.models, init, RefineOptions(), images=imgs)
     assert isinstance(res, RefineResult)
     assert set(res.poses) == set(gt)
-    # a 30 deg arc: the medium sigma group, and no point-motion ridge by default (medium bundles)
-    assert res.stats["baseline_group"] == "medium" and res.stats["object_ridge"] == "none"
+    # a 30 deg arc: the medium sigma group, so the table's rotation term on by default, and with it the
+    # point-motion ridge at the finest level (RefineOptions.table_flow "medium", object_ridge "by_baseline")
+    assert res.stats["baseline_group"] == "medium" and res.stats["table_flow"] is True
+    assert res.stats["object_ridge"] == "finest"
     # ... and the appearance biases removed (RefineOptions.bias_removal_groups: lit templates, lit
     # contour prediction, f_t's residual flow, the finest level's interior turn gate)
     assert res.stats["bias_removal"] is True
