@@ -929,9 +929,10 @@ class _Stage:
             drifting = _drifting(move, prev_move, opt.extend_mm) if prev_move is not None else True
             calm = 0 if drifting else calm + 1
             prev_move = move
-            obj = _object_point_moves(st[1], st1[1], self.moments)
-            drift = _drifting_rows(obj, prev_obj, opt.extend_mm) if prev_obj is not None else set()
-            prev_obj = obj
+            if pb.obj_free.any():     # per-object drift (the camera-only stages have no free object)
+                obj = _object_point_moves(st[1], st1[1], self.moments)
+                drift = _drifting_rows(obj, prev_obj, opt.extend_mm) if prev_obj is not None else set()
+                prev_obj = obj
             if dmm < opt.pose_tol_mm and ddeg < opt.pose_tol_deg:
                 self.converged = True
                 return False, terms, lam, outer, set()
@@ -1115,9 +1116,7 @@ def _drifting(move: np.ndarray, prev: np.ndarray, min_mm: float, min_cos: float 
     in nearly the direction of the previous one (cosine > ``min_cos``). The jitter that redrawing
     the edge samples causes has no preferred direction; a pose sliding along a shallow valley
     (depth against tilt of a far object seen from one viewpoint) keeps its direction."""
-    n1, n0 = np.linalg.norm(move, axis=1), np.linalg.norm(prev, axis=1)
-    cos = (move * prev).sum(axis=1) / np.maximum(n1 * n0, 1e-12)
-    return bool(np.any((n1 > min_mm) & (cos > min_cos)))
+    return bool(_drifting_rows(move, prev, min_mm, min_cos))
 
 
 def _bbox(mask: np.ndarray, margin: int) -> tuple[int, int, int, int]:

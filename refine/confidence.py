@@ -315,8 +315,9 @@ class PoseStatus:
     reason: str = ""
 
 
-# the status reason of an object held at an earlier pose (refine.bundle._Stage._verify_coarse_moves)
+# the status reason of an object still drifting when the finest level's cap ended it (classify's ``drifting``)
 DRIFT_REASON = "still drifting one way at the iteration cap"
+# the status reason of an object held at an earlier pose (refine.bundle._Stage._verify_coarse_moves)
 HELD_REASON = "held where it was visible: refining it hid it in every view"
 
 
