@@ -34,8 +34,9 @@ from .shading import lit_template, view_lighting
 from .threads import single_threaded_kernels
 from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
                         area_template, render_view, select_edge_samples, view_edge_candidates, with_area)
-from .table import (TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
+from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
                     table_rotation, whitening)
+from .table_contact import TableContactTerm, mean_normal
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
@@ -290,6 +291,12 @@ class RefineOptions:
     # error hardly grows with the pair's turn, so the far pair fixes the path's turn to a smaller
     # fraction of it. Every pair is matched guided by the support plane's predicted homography
     table_span_deg: float = 30.0
+    # with table_flow, also hold the objects whose lowest point touches the support plane at one
+    # height above a plane of the normal the table's homographies measure (refine.table_contact):
+    # pins the joint turn of all objects relative to the cameras that 20-degree baselines leave weak
+    # (suite medium-3 from the exact GT: 0.18 deg). sigma: the contacts' height scatter (mm)
+    table_contact: bool = False
+    table_contact_sigma_mm: float = 0.5
     min_visible_px: int = 30
     n_init_points: int = 200
     compute_uncertainty: bool = True
@@ -425,6 +432,7 @@ class _Stage:
         self._me: dict[int, np.ndarray] = {}
         self._flows: dict[tuple[int, int], tuple] = {}
         self._table_rot: dict[tuple[int, int], object] = {}   # (k, i) -> TableRotation or None
+        self._table_normals: dict[tuple[int, int], tuple] = {}  # (k, i) -> (k, plane normal in camera k, its covariance)
         self._table_span: list | None = None                   # refine.table.span_pairs, once chosen
         self.visible: set[tuple[int, int]] = set()
         # renders of the coarse-move check at the current poses, taken by the next render() of the
@@ -538,6 +546,10 @@ class _Stage:
         # objects fixed) it left every object of the long-1 clip ~2 mm too close (session 45)
         if opt.table_flow and self.pairs and self.name == "keyframes" and (self.at_finest or opt.table_levels == "all"):
             terms.append(self._table_rotation_term(renders))
+            if opt.table_contact:
+                t = self._table_contact_term()
+                if t is not None:
+                    terms.append(t)
         if opt.contact_weight > 0 and len(self.pb.obj_ids) > 1:
             surfaces, points = self.contact_surfaces
             terms.append(ContactTerm(surfaces, contact_groups(self.pb, surfaces, points),
@@ -737,12 +749,40 @@ class _Stage:
                                        renders[i].instance > 0, opt.table_points, H_pred=H_pred)
                 n_k = pb.T_c[k][:3, :3] @ plane[0] if plane else None
                 R_guess = pb.T_c[i][:3, :3] @ pb.T_c[k][:3, :3].T
-                m = table_rotation(xs, xd, pb.views[k].K, pb.views[i].K, R_guess, n_k)
+                m = table_rotation(xs, xd, pb.views[k].K, pb.views[i].K, R_guess, n_k, with_normal=True)
                 W = whitening(m[1]) if m is not None else None
                 self._table_rot[(k, i)] = TableRotation(i, k, m[0], W) if W is not None else None
+                if W is not None:
+                    self._table_normals[(k, i)] = (k, m[4], m[5])
             if self._table_rot[(k, i)] is not None:
                 rots.append(self._table_rot[(k, i)])
         return TableRotationTerm(rots, weight=opt.table_weight)
+
+    def _table_contact_term(self) -> TableContactTerm | None:
+        """The touching objects held to the table plane's measured normal (``table_contact``): the
+        normals of this level's measured pairs (camera k's, turned into the world by the current
+        camera) averaged; the touching objects those whose lowest hull point lies within
+        TOUCH_MM of the support plane of the current poses. None with fewer than 3 of them."""
+        pb = self.pb
+        known = [j for j in range(len(pb.obj_ids)) if pb.obj_known[j] and pb.obj_block[j] >= 0]
+        if len(known) < 3 or not self._table_normals:
+            return None
+        pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
+        centres = np.stack([inv_T(T)[:3, 3] for T in pb.T_c])
+        plane = support_plane(pts, centres)
+        if plane is None:
+            return None
+        n_cur, d_cur, _ = plane
+        ns = [pb.T_c[k][:3, :3].T @ n for k, n, _ in self._table_normals.values()]
+        covs = [pb.T_c[k][:3, :3].T @ c @ pb.T_c[k][:3, :3] for k, _, c in self._table_normals.values()]
+        n_w = mean_normal(ns, covs, n_cur)
+        if n_w is None:
+            return None
+        touching = [(j, self.hull_points[j]) for j, P in zip(known, pts) if float(np.min(P @ n_cur)) - d_cur < TOUCH_MM]
+        self.stats["table_contact_objects"] = len(touching)
+        if len(touching) < 3:
+            return None
+        return TableContactTerm(n_w, touching, sigma_mm=self.opt.table_contact_sigma_mm)
 
     def _register_gauge(self, terms: list, sopt: SolverOptions, stage: str) -> None:
         """Fit the first (gauge) camera alone to the rest of the bundle -- its own terms only, every
@@ -1932,6 +1972,10 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not (isinstance(opt.table_points, int) and not isinstance(opt.table_points, bool) and opt.table_points >= 50):
         raise YcbvssError(f"RefineOptions.table_points must be an integer >= 50, got {opt.table_points!r}",
                           where=f"scene {scene.scene_id}")
+    if not (isinstance(opt.table_contact_sigma_mm, (int, float, np.floating)) and not isinstance(opt.table_contact_sigma_mm, bool)
+            and np.isfinite(opt.table_contact_sigma_mm) and opt.table_contact_sigma_mm > 0.0):
+        raise YcbvssError(f"RefineOptions.table_contact_sigma_mm must be a finite number > 0, got "
+                          f"{opt.table_contact_sigma_mm!r}", where=f"scene {scene.scene_id}")
     for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
                  "ridge_fallback_mm"):
         v = getattr(opt, name)

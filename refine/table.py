@@ -211,7 +211,7 @@ def _homography_residuals(p: np.ndarray, R0: np.ndarray, n0: np.ndarray, B: np.n
 
 def table_rotation(xs: np.ndarray, xd: np.ndarray, K_k: np.ndarray, K_i: np.ndarray, R_guess: np.ndarray,
                    n_guess: np.ndarray | None = None, ransac_px: float = 1.0, min_inliers: int = 50,
-                   iters: int = 5) -> tuple[np.ndarray, np.ndarray, int, float] | None:
+                   iters: int = 5, with_normal: bool = False) -> tuple | None:
     """The relative rotation R_ik (camera k to camera i) that the table's homography between two
     views shows, with its covariance: a plane's homography in normalised coordinates is
     H = R + t n^T (t: the translation over the plane's distance), so R is measured without the
@@ -222,7 +222,9 @@ def table_rotation(xs: np.ndarray, xd: np.ndarray, K_k: np.ndarray, K_i: np.ndar
     nearest ``R_guess`` (and ``n_guess``, the plane normal in camera k, when given) is refined by
     Gauss-Newton on (rotation, t, n) against the inliers' pixel residuals. Returns (R (3, 3),
     covariance of its left rotation error (3, 3; rad^2, from the residuals' variance), inliers,
-    median inlier residual px), or None when fewer than ``min_inliers`` matches fit a plane."""
+    median inlier residual px), or None when fewer than ``min_inliers`` matches fit a plane.
+    ``with_normal``: also the plane's unit normal in camera k (sign as the decomposition gives it)
+    and its covariance (3, 3; rank 2, in the plane's tangent), appended to the tuple."""
     if len(xs) < min_inliers:
         return None
     Hp, mask = cv2.findHomography(xs.astype(np.float32), xd.astype(np.float32), cv2.RANSAC, ransac_px)
@@ -274,7 +276,11 @@ def table_rotation(xs: np.ndarray, xd: np.ndarray, K_k: np.ndarray, K_i: np.ndar
         return None
     R = exp_so3(p[:3]) @ R0
     med = float(np.median(np.hypot(r[0::2], r[1::2])))
-    return R, cov[:3, :3], int(inl.sum()), med
+    if not with_normal:
+        return R, cov[:3, :3], int(inl.sum()), med
+    n = n0 + B @ p[6:8]
+    n /= np.linalg.norm(n)
+    return R, cov[:3, :3], int(inl.sum()), med, n, B @ cov[6:8, 6:8] @ B.T
 
 
 @dataclass
