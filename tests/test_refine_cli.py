@@ -136,7 +136,7 @@ def test_cli_refine_table_flow_refines(bop_root, tmp_path):
     root, init, gt = bop_root
     out = tmp_path / "out"
     rc = main(["refine", "--dataset", str(root), "--split", "test", "--init", str(root / "init.csv"),
-               "--out", str(out), "--max-iters", "3", "--table-flow", "--table-span-deg", "30"])
+               "--out", str(out), "--max-iters", "3", "--table-flow", "--table-span-deg", "30", "--table-contact"])
     assert rc == 0
     est = read_bop19_csv(next(out.glob("*.csv")))
     err0 = np.mean([np.linalg.norm(init[k][:3, 3] - gt[k][:3, 3]) for k in gt])

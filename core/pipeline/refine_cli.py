@@ -57,6 +57,9 @@ def register(sub) -> None:
     p.add_argument("--table-span-deg", type=float, default=None,
                    help="with the table, also pair each keyframe with the earliest keyframe turned at most this "
                         "far (deg) from it, so far pairs fix the camera path's turn (default 30; 0: temporal pairs only)")
+    p.add_argument("--table-contact", action="store_true", default=None,
+                   help="with the table, also hold the objects standing on it at one height above a plane of the "
+                        "normal its homographies measure (ycbvss.refine.table_contact; RefineOptions.table_contact)")
     p.set_defaults(func=_run)
 
 
@@ -106,6 +109,8 @@ def _run(args: argparse.Namespace) -> int:
             setattr(opt, k, getattr(args, k))
     if args.table_flow is not None:
         opt.table_flow = {"all": True, "none": False}.get(args.table_flow, args.table_flow)
+    if args.table_contact is not None:
+        opt.table_contact = True
     if not (opt.use_edge or opt.use_point):
         raise YcbvssError("at least one of the edge and point terms is needed (both disabled)")
     csv_init = None
