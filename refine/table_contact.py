@@ -69,11 +69,18 @@ class TableContactTerm:
     def n_obs(self) -> int:
         return max(len(self.groups) - 1, 0)
 
-    def _heights(self, pb: BundleProblem) -> list[tuple[float, np.ndarray]]:
-        return [lowest_point(pb.T_m[j], X, self.normal_w) for j, X in self.groups]
+    def _heights(self, pb: BundleProblem) -> list[tuple[int, float, np.ndarray]]:
+        """(object index, lowest height, lowest point) of the objects whose pose is finite: a pose
+        that turned non-finite is failed elsewhere and must not reach the others through this term."""
+        out = []
+        for j, X in self.groups:
+            if np.all(np.isfinite(pb.T_m[j])):
+                h, W = lowest_point(pb.T_m[j], X, self.normal_w)
+                out.append((j, h, W))
+        return out
 
     def cost(self, pb: BundleProblem) -> float:
-        hs = np.array([h for h, _ in self._heights(pb)])
+        hs = np.array([h for _, h, _ in self._heights(pb)])
         m = len(hs)
         if m < 2:
             return 0.0
@@ -88,16 +95,15 @@ class TableContactTerm:
             return 0.0, out
         s = self.sigma_mm * np.sqrt(m)
         n = self.normal_w
-        jac = [np.r_[n, np.cross(W, n)] / s for _, W in low]
+        jac = [np.r_[n, np.cross(W, n)] / s for _, _, W in low]
         for a in range(m):
             for b in range(a + 1, m):
-                e = (low[a][0] - low[b][0]) / s
+                e = (low[a][1] - low[b][1]) / s
                 total += e * e
                 Ja, Jb = np.zeros((1, 2, 6)), np.zeros((1, 2, 6))
                 Ja[0, 0], Jb[0, 0] = jac[a], -jac[b]
                 A = np.zeros((1, 2, 2))
                 A[0, 0, 0] = 2.0 * self.weight
                 g = np.array([[2.0 * self.weight * e, 0.0]])
-                out.append(Linearization(int(pb.obj_block[self.groups[a][0]]), int(pb.obj_block[self.groups[b][0]]),
-                                         Ja, Jb, A, g))
+                out.append(Linearization(int(pb.obj_block[low[a][0]]), int(pb.obj_block[low[b][0]]), Ja, Jb, A, g))
         return self.weight * total, out

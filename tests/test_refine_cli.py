@@ -136,9 +136,17 @@ def test_cli_refine_table_flow_refines(bop_root, tmp_path):
     root, init, gt = bop_root
     out = tmp_path / "out"
     rc = main(["refine", "--dataset", str(root), "--split", "test", "--init", str(root / "init.csv"),
-               "--out", str(out), "--max-iters", "3", "--table-flow", "--table-span-deg", "30", "--table-contact"])
+               "--out", str(out), "--max-iters", "3", "--table-flow", "--table-span-deg", "30"])
     assert rc == 0
     est = read_bop19_csv(next(out.glob("*.csv")))
     err0 = np.mean([np.linalg.norm(init[k][:3, 3] - gt[k][:3, 3]) for k in gt])
     err1 = np.mean([np.linalg.norm(e.T_m2c[:3, 3] - gt[(e.im_id, e.obj_id)][:3, 3]) for e in est])
     assert err1 < err0 / 2, (err0, err1)
+
+
+def test_cli_refine_no_table_contact_is_parsed_to_the_option():
+    from ycbvss.cli import build_parser
+    p = build_parser()
+    base = ["refine", "--dataset", "d", "--out", "o", "--init", "i"]
+    assert p.parse_args(base + ["--no-table-contact"]).table_contact is False
+    assert p.parse_args(base).table_contact is None          # None: RefineOptions' default (held)

@@ -122,3 +122,16 @@ def test_table_rotation_measures_the_plane_normal():
         errs.append(np.degrees(np.arccos(min(float(nn @ n_true), 1.0))))
         assert abs(float(cov_n @ n_true @ n_true)) < 1e-3 * np.trace(cov_n)   # in the tangent only
     assert max(errs) < 0.05                                   # 0.05 px matches, ~25 deg apart: measured <= 0.013 deg
+
+
+def test_a_non_finite_pose_is_left_out_and_does_not_reach_the_others():
+    from ycbvss.refine.solver import assemble
+    _, T_m, hulls, n = _boxes_on_a_table(turn_deg=0.3)
+    T_m[1][:3, 3] = np.nan
+    pb = _problem(T_m)
+    term = TableContactTerm(n, [(j, X) for j, X in enumerate(hulls)], sigma_mm=0.5)
+    c, lins = term.linearize(pb)
+    assert np.isfinite(c) and c > 0 and np.isclose(c, term.cost(pb))
+    assert len(lins) == 1 and {lins[0].a, lins[0].b} == {int(pb.obj_block[0]), int(pb.obj_block[2])}
+    H, g = assemble(pb.n_blocks, lins)
+    assert np.all(np.isfinite(H)) and np.all(np.isfinite(g))

@@ -57,9 +57,10 @@ def register(sub) -> None:
     p.add_argument("--table-span-deg", type=float, default=None,
                    help="with the table, also pair each keyframe with the earliest keyframe turned at most this "
                         "far (deg) from it, so far pairs fix the camera path's turn (default 30; 0: temporal pairs only)")
-    p.add_argument("--table-contact", action="store_true", default=None,
-                   help="with the table, also hold the objects standing on it at one height above a plane of the "
-                        "normal its homographies measure (ycbvss.refine.table_contact; RefineOptions.table_contact)")
+    p.add_argument("--no-table-contact", dest="table_contact", action="store_false", default=None,
+                   help="with the table, do not hold the objects standing on it at one height above a plane of the "
+                        "normal its homographies measure (ycbvss.refine.table_contact; default: held, "
+                        "RefineOptions.table_contact)")
     p.set_defaults(func=_run)
 
 
@@ -110,7 +111,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.table_flow is not None:
         opt.table_flow = {"all": True, "none": False}.get(args.table_flow, args.table_flow)
     if args.table_contact is not None:
-        opt.table_contact = True
+        opt.table_contact = args.table_contact
     if not (opt.use_edge or opt.use_point):
         raise YcbvssError("at least one of the edge and point terms is needed (both disabled)")
     csv_init = None
