@@ -781,8 +781,8 @@ class _Stage:
             return None
         n_cur, d_cur, _ = plane
         ns = [pb.T_c[k][:3, :3].T @ n for k, n, _ in self._table_normals.values()]
-        covs = [pb.T_c[k][:3, :3].T @ c @ pb.T_c[k][:3, :3] for k, _, c in self._table_normals.values()]
-        n_w = mean_normal(ns, covs, n_cur)
+        # mean_normal weighs by the covariance's trace, which turning it into the world leaves as it is
+        n_w = mean_normal(ns, [c for _, _, c in self._table_normals.values()], n_cur)
         if n_w is None:
             return None
         touching = [(j, self.hull_points[j]) for j, P in zip(known, pts) if float(np.min(P @ n_cur)) - d_cur < TOUCH_MM]
