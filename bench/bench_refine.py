@@ -79,6 +79,19 @@ def _option_override(text: str) -> tuple[str, object]:
         return name, value
 
 
+def host_index_s() -> float:
+    """Seconds this host takes for a fixed single-threaded pure-Python loop (sum of 10**7 squares),
+    best of 3: printed beside the speed figure, so figures from hosts of different speed can be put
+    side by side (2026-11-28, session 48: 2.09 s on this 2-core host while the bench ran at 0.81 s
+    per frame*object)."""
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter()
+        sum(i * i for i in range(10 ** 7))
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--frames", type=int, default=8)
@@ -102,6 +115,7 @@ def main() -> None:
         configs.update({"w/o f_edge": RefineOptions(**{**over, "use_edge": False}),
                         "w/o f_point": RefineOptions(**{**over, "use_point": False}),
                         "w/o f_t": RefineOptions(**{**over, "use_temporal": False})})
+    print(f"host index: {host_index_s():.2f} s for a pure-Python loop of 10**7 squares (best of 3)")
     agg: dict[str, list] = {"init (scene-consistent)": [], "init (per view)": []}
     per_obj: dict[str, dict] = {}
     for seed in args.seeds:
