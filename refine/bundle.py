@@ -240,7 +240,8 @@ class RefineOptions:
     # ADD < 2 mm 0.823 -> 0.886; long 1-2 seed 0 R 0.246 -> 0.216 deg but tz 0.37 -> 0.58 mm (long-1's
     # whole scene moves: signed dz -0.52 -> -0.95 mm, the free-camera scale of
     # bench/results/ycbv21/bias_sources.md). Hence on narrow-baseline bundles only by default
-    # (``interior_sharpness_bundles`` "narrow"; "all": every bundle)
+    # (``interior_sharpness_bundles`` "narrow"; "all": every bundle, including the frames stages;
+    # else a comma-separated list of baseline groups: the keyframe bundles of those groups)
     interior_min_sharpness: float = 1.8
     interior_sharpness_bundles: str = "narrow"
     fold_min_angle_deg: float = 25.0  # normal turn that makes a fold edge (>= 180: self-occlusion edges only)
@@ -1871,6 +1872,14 @@ def _keyframe_group(T_c_kf: np.ndarray, T_m_known: np.ndarray, min_baseline_deg:
     return base_deg, narrow, baseline_group(narrow, base_deg)
 
 
+def _bundle_min_sharpness(opt: RefineOptions, group: str) -> float:
+    """``interior_min_sharpness`` of a keyframe bundle of baseline group ``group`` (0: the gate is
+    off there): on every bundle with ``interior_sharpness_bundles`` "all", else on those of the
+    listed groups."""
+    spec = opt.interior_sharpness_bundles
+    return opt.interior_min_sharpness if spec == "all" or group in _groups(spec) else 0.0
+
+
 def _groups(spec: str) -> tuple[str, ...]:
     """Baseline groups of a comma-separated option value ("" -> none); unknown names raise ValueError."""
     out = tuple(g.strip() for g in str(spec).split(",") if g.strip())
@@ -1902,8 +1911,7 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
         pb.obj_moments = stage.moments
     stage.ridge_finest = ridge == "finest"
     stats["object_ridge"] = ridge
-    if narrow and opt.interior_sharpness_bundles == "narrow":
-        stage.min_sharpness = opt.interior_min_sharpness
+    stage.min_sharpness = _bundle_min_sharpness(opt, group_now)
     stats["interior_min_sharpness"] = stage.min_sharpness
     turn_groups = {"wide": ("wide",), "medium": ("medium", "wide")}     # checked in refine_scene
     if group_now in turn_groups[opt.interior_turn_groups]:
@@ -1963,10 +1971,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         if getattr(opt, name) not in (True, False, "narrow", "medium"):
             raise YcbvssError(f"RefineOptions.{name} must be True, False, 'narrow' or 'medium', got {getattr(opt, name)!r}",
                               where=f"scene {scene.scene_id}")
-    if opt.interior_sharpness_bundles not in ("narrow", "all"):
-        raise YcbvssError(f"RefineOptions.interior_sharpness_bundles must be 'narrow' or 'all', got "
-                          f"{opt.interior_sharpness_bundles!r}", where=f"scene {scene.scene_id}")
     group_specs = {"bias_removal_groups": opt.bias_removal_groups, "supersample_groups": opt.supersample_groups}
+    if opt.interior_sharpness_bundles != "all":
+        group_specs["interior_sharpness_bundles"] = opt.interior_sharpness_bundles
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):
         raise YcbvssError(f"RefineOptions.template_supersample must be an integer 1-8, got {opt.template_supersample!r}",
                           where=f"scene {scene.scene_id}")

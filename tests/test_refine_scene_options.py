@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ycbvss.errors import YcbvssError
-from ycbvss.refine.bundle import BIAS_REMOVAL, RefineOptions, _scene_options, refine_scene
+from ycbvss.refine.bundle import BIAS_REMOVAL, RefineOptions, _bundle_min_sharpness, _scene_options, refine_scene
 
 
 def _orbit(angles_deg: list[float], dist_mm: float = 1000.0) -> np.ndarray:
@@ -150,3 +150,16 @@ def test_table_flow_is_resolved_per_scene_from_the_keyframes_baseline_group(spec
 def test_an_unknown_table_flow_group_is_an_error_naming_the_option():
     with pytest.raises(YcbvssError, match="table_flow"):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(table_flow="long"))
+
+
+@pytest.mark.parametrize("spec, on", [("narrow", {"narrow"}), ("narrow,medium", {"narrow", "medium"}),
+                                      ("all", {"narrow", "medium", "wide"}), ("", set())])
+def test_the_sharpness_gate_is_resolved_per_keyframe_bundle_from_its_baseline_group(spec, on):
+    opt = RefineOptions(interior_sharpness_bundles=spec, interior_min_sharpness=1.8)
+    for group in ("narrow", "medium", "wide"):
+        assert _bundle_min_sharpness(opt, group) == (1.8 if group in on else 0.0)
+
+
+def test_an_unknown_sharpness_bundle_group_is_an_error_naming_the_option():
+    with pytest.raises(YcbvssError, match="interior_sharpness_bundles"):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(interior_sharpness_bundles="long"))
