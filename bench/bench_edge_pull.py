@@ -1,0 +1,164 @@
+"""Where f_edge's pull on an object's rotation comes from, at the exact GT of one suite clip.
+
+At the exact pose the cost should be flat. For each of the chosen frames this bench renders the
+clip's objects at the GT (fast renderer), takes the object's f_edge candidates as the refiner's
+finest level does (contour samples matched to the 1 px blur, interior texture samples gated by the
+normal turn of medium bundles, no fold edges) and reads the Cycles image's edge field (colour,
+sigma 1 px). Per sample it computes the slope of E along a rotation of the object about one of its
+model axes through the model's centroid (dE / d deg, finite difference of 0.2 deg): the sum over
+samples is the pull f_edge puts on that rotation at the GT (negative: a positive turn lowers the
+cost). The samples are split into
+
+- contour samples whose outward neighbour pixel belongs to another object (a contact line, or the
+  object's edge against a neighbour behind it),
+- contour samples with another object 2-4 px outside (a narrow gap: the neighbour's edge lies
+  within the blur),
+- the other contour samples,
+- interior samples,
+
+written as Markdown / CSV / LaTeX (``edge_pull.*``) and as a PNG per frame (``edge_pull_<frame>.png``:
+the image magnified, each sample a dot sized by its pull, red = pushes the turn negative, blue =
+positive; interior samples as rings).
+
+    python bench/bench_edge_pull.py --dataset ../shared/data/ycbv --suite-root /tmp/suite/full \
+        --clip medium-4 --obj 21 --axis z --frames 0,20,40,58 --out bench/results/ycbv21/edge_pull
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+CLASSES = ("contour, touching another object", "contour, another object 2-4 px out", "contour, free", "interior")
+
+
+def sample_classes(instance: np.ndarray, uv: np.ndarray, normals: np.ndarray, label: int) -> np.ndarray:
+    """(N,) class index (0-2 of :data:`CLASSES`) of contour samples uv (N, 2) with outward unit
+    normals (N, 2): what the instance image holds 1 px and 2-4 px outside along the normal."""
+    H, W = instance.shape
+    out = np.full(len(uv), 2)
+    near = np.zeros(len(uv), bool)
+    for k in range(1, 5):
+        q = np.clip(np.round(uv + k * normals).astype(int), 0, [W - 1, H - 1])
+        lab = instance[q[:, 1], q[:, 0]]
+        other = (lab > 0) & (lab != label)
+        if k == 1:
+            touch = other
+        else:
+            near |= other
+    out[near & ~touch] = 1
+    out[touch] = 0
+    return out
+
+
+def rotation_pull(K: np.ndarray, T_m2c: np.ndarray, X_model: np.ndarray, centre: np.ndarray, axis: int,
+                  field, step_deg: float = 0.2) -> np.ndarray:
+    """(N,) dE / d deg of each model point X_model (N, 3, mm) for a turn of the object about its
+    model axis ``axis`` through ``centre`` (finite difference of ``step_deg``); 0 outside the image."""
+    import cv2
+
+    from ycbvss.refine.edge import sample_field
+    from ycbvss.refine.jacobians import project_points
+
+    w = np.zeros(3)
+    w[axis] = np.radians(step_deg)
+    R = cv2.Rodrigues(w)[0]
+    uv0, ok0 = project_points(K, T_m2c, X_model)
+    uv1, _ = project_points(K, T_m2c, (X_model - centre) @ R.T + centre)
+    _, grad, _, inside = sample_field(field, np.where(ok0[:, None], uv0, -1e9))
+    pull = np.einsum("ni,ni->n", grad, (uv1 - uv0) / step_deg)
+    return np.where(ok0 & inside, pull, 0.0)
+
+
+def main() -> None:
+    import cv2
+
+    from ycbvss.eval.tables import Row, Table, write_table
+    from ycbvss.geometry.se3 import inv_T
+    from ycbvss.io.bop import load_bop_scene
+    from ycbvss.io.images import write_png
+    from ycbvss.pipeline import suite_run as S
+    from ycbvss.pipeline.suite import build_suite, clips_of
+    from ycbvss.refine.edge import edge_field
+    from ycbvss.refine.jacobians import backproject_px
+    from ycbvss.refine.templates import ensure_meshes, get_renderer, render_view, view_edge_candidates
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dataset", required=True)
+    ap.add_argument("--suite-root", required=True)
+    ap.add_argument("--clip", required=True, help="e.g. medium-4")
+    ap.add_argument("--obj", type=int, required=True)
+    ap.add_argument("--axis", choices=("x", "y", "z"), required=True, help="model axis of the turn")
+    ap.add_argument("--frames", default="0", help="frame ids")
+    ap.add_argument("--zoom", type=int, default=5)
+    ap.add_argument("--out", required=True)
+    a = ap.parse_args()
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    root = Path(a.suite_root)
+    sid = int(a.clip.split("-")[1])
+    models, specs = build_suite(a.dataset, root, "ycbv21", scene_ids=[sid])
+    clip = next(c for sp in specs for c in clips_of(sp) if c.name == a.clip)
+    frames = {f.im_id: f for f in S.clip_scene(load_bop_scene(root / "test", sid, models), clip).frames}
+    axis = "xyz".index(a.axis)
+    centre = np.asarray(models[a.obj].vertices_mm, np.float64).mean(0)
+    r = get_renderer()
+    ensure_meshes(r, models)
+    rows, totals = [], np.zeros(len(CLASSES))
+    for im in (int(x) for x in a.frames.split(",")):
+        f = frames[im]
+        ids = [i.obj_id for i in f.instances]
+        if a.obj not in ids:
+            raise SystemExit(f"object {a.obj} is not in frame {im} of {a.clip}")
+        img = f.load_rgb()
+        H, W = img.shape[:2]
+        K = f.camera.K
+        poses = {j: i.T_m2c for j, i in enumerate(f.instances)}
+        vr = render_view(r, models, ids, K, W, H, poses, back=True)
+        c = view_edge_candidates(vr, creases=True, blur_sigma_px=1.0, normals=True, interior_max_turn_deg=20.0,
+                                 fold_min_angle_deg=180.0)
+        j = ids.index(a.obj)
+        lab = vr.obj_index.index(j) + 1
+        T = poses[j]
+        Pi = inv_T(T)
+        fld = edge_field(img, 1.0, colour=True)
+        per_class, dots = np.zeros(len(CLASSES)), []
+        counts = np.zeros(len(CLASSES), int)
+        for interior, uv, dep, lbl in ((False, c.uv_c, c.d_c, c.l_c), (True, c.uv_i, c.d_i, c.l_i)):
+            m = (lbl == lab) & (dep > 0)
+            X = backproject_px(K, uv[m], dep[m]) @ Pi[:3, :3].T + Pi[:3, 3]
+            pull = rotation_pull(K, T, X, centre, axis, fld)
+            cls = np.full(m.sum(), 3) if interior else sample_classes(vr.instance, uv[m], c.n_c[m], lab)
+            for k in range(len(CLASSES)):
+                per_class[k] += pull[cls == k].sum()
+                counts[k] += int((cls == k).sum())
+            dots += [(p, q, interior) for p, q in zip(uv[m], pull)]
+        totals += per_class
+        for k, name in enumerate(CLASSES):
+            rows.append(Row(f"frame {im}: {name}", [float(counts[k]), float(per_class[k])]))
+        rows[-len(CLASSES)].rule_before = True
+        # the map
+        ys, xs = np.nonzero(vr.instance == lab)
+        x0, y0 = max(xs.min() - 10, 0), max(ys.min() - 10, 0)
+        x1, y1 = min(xs.max() + 10, W), min(ys.max() + 10, H)
+        z = a.zoom
+        big = cv2.resize(np.ascontiguousarray(img[y0:y1, x0:x1]), None, fx=z, fy=z, interpolation=cv2.INTER_NEAREST)
+        scale = max(max(abs(q) for _, q, _ in dots), 1e-12)
+        for p, q, interior in dots:
+            centre_px = tuple(int(v) for v in (p - (x0, y0) + 0.5) * z)
+            colour = (0, 0, 255) if q > 0 else (255, 0, 0)
+            cv2.circle(big, centre_px, max(1, int(round(6 * abs(q) / scale))), colour, 1 if interior else -1)
+        write_png(out / f"edge_pull_{im}.png", big)
+    for k, name in enumerate(CLASSES):
+        rows.append(Row(f"all frames: {name}", [None, float(totals[k])], rule_before=k == 0))
+    t = Table(caption=f"{a.clip}, object {a.obj} ({models[a.obj].name}) at the exact GT: f_edge's pull on a turn about "
+                      f"its model {a.axis} axis (sum over samples of dE / d deg; negative: a positive turn lowers the "
+                      f"cost), by sample class", label_header="frame: samples",
+              columns=["samples", "pull (1/deg)"], rows=rows, digits=3)
+    for p in write_table(t, out, "edge_pull"):
+        print(p)
+
+
+if __name__ == "__main__":
+    main()
