@@ -148,6 +148,14 @@ class RefineOptions:
     # clips with touching objects too (long-1 from the GT 0.380 -> 0.352 mm): the tables of record
     # would all have to be re-measured
     edge_contact_mm: float = 0.0
+    # > 0: instead of being dropped, the contour samples on contact lines (another object's surface
+    # less than ``contact_offset_mm`` behind the silhouette: an object resting on another) share one
+    # outward offset per (view, object) that is marginalised out of f_edge at the finest level (the
+    # contour-dilation nuisance of refine.terms.EdgeTerm, restricted to those samples), its prior
+    # worth this many samples: the contact shadow's band moves the image edge outward by an unknown
+    # width, while the line's direction is kept. 0 (default): off. Not with edge_dilation_k.
+    edge_contact_offset_k: float = 0.0
+    contact_offset_mm: float = 10.0
     # non-penetration (refine.contact): weight of f_contact = weight * sum max(0, p - contact_tol_mm)^2
     # over model points p mm inside another object of the bundle, per term view (mm^-2; the image
     # terms grow with the views, so does this). 0 (default): off. Zero wherever no object is more
@@ -592,12 +600,13 @@ class _Stage:
         level_sigma = next(iter(fields.values())).sigma_px if fields else 1.0
         # the nuisance at the finest level only: the coarser levels keep the contour's full size
         # information to pull a depth that starts centimetres off (paper init) into the basin
-        dil = (opt.edge_dilation_k > 0.0
+        dil = ((opt.edge_dilation_k > 0.0 or opt.edge_contact_offset_k > 0.0)
                and level_sigma <= DILATION_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
         sharp = self.min_sharpness if self.at_finest else 0.0
         kw = dict(creases=opt.edge_creases, interior_max_turn_deg=self._turn_gate(), interior_min_sharpness=sharp,
                   fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur, normals=dil,
-                  contact_mm=opt.edge_contact_mm)
+                  contact_mm=opt.edge_contact_mm,
+                  normals_contact_mm=opt.contact_offset_mm if dil and opt.edge_contact_offset_k > 0.0 else 0.0)
         return {"kw": kw, "app": app, "lit": app and self.shading, "dil": dil}
 
     def _submit_edge_job(self, i: int, vr: ViewRender, eo: dict):
@@ -626,7 +635,8 @@ class _Stage:
                     groups.append(EdgeGroup(i, j, X, nrm.get(j) if nrm is not None else None))
         sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
         term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
-                        curv_floor=opt.edge_curv_floor / sig, dilation_k=opt.edge_dilation_k if eo["dil"] else 0.0)
+                        curv_floor=opt.edge_curv_floor / sig,
+                        dilation_k=(opt.edge_dilation_k or opt.edge_contact_offset_k) if eo["dil"] else 0.0)
         self._t("edge_sampling_s", time.perf_counter() - t0)
         return term
 
@@ -1991,10 +2001,13 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         raise YcbvssError(f"RefineOptions.table_contact_sigma_mm must be a finite number > 0, got "
                           f"{opt.table_contact_sigma_mm!r}", where=f"scene {scene.scene_id}")
     for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
-                 "ridge_fallback_mm"):
+                 "ridge_fallback_mm", "edge_contact_offset_k", "contact_offset_mm"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):
             raise YcbvssError(f"RefineOptions.{name} must be a finite number >= 0, got {v!r}", where=f"scene {scene.scene_id}")
+    if opt.edge_contact_offset_k > 0.0 and opt.edge_dilation_k > 0.0:
+        raise YcbvssError("RefineOptions.edge_contact_offset_k and edge_dilation_k cannot both be on (one "
+                          "contour nuisance per group)", where=f"scene {scene.scene_id}")
     if not isinstance(opt.edge_rim_depth, bool):
         group_specs["edge_rim_depth"] = opt.edge_rim_depth
     if isinstance(opt.table_flow, str):

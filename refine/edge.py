@@ -429,6 +429,24 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray, back_depth: np.ndarr
     return uv, z, ic[v, u].astype(int)
 
 
+def contact_samples(inst: np.ndarray, depth: np.ndarray, uv: np.ndarray, normals: np.ndarray, labels: np.ndarray,
+                    contact_mm: float) -> np.ndarray:
+    """(N,) bool: contour samples uv (N, 2; half a pixel outside their contour pixel, as
+    :func:`all_contour_points` puts them) with outward unit normals (N, 2) whose outside pixel
+    belongs to another object whose surface lies less than ``contact_mm`` behind the contour
+    pixel's: a contact line, where the image's edge is the contact shadow's (see
+    ``contact_mm`` of :func:`all_contour_points`). Samples without a normal are never contact."""
+    H, W = inst.shape
+    uv = np.asarray(uv, np.float64).reshape(-1, 2)
+    inside = np.clip(np.floor(uv - 0.5 * normals + 0.5).astype(int), 0, [W - 1, H - 1])
+    out = np.clip(np.floor(uv + 0.5 * normals + 0.5).astype(int), 0, [W - 1, H - 1])
+    lab_o = inst[out[:, 1], out[:, 0]]
+    d_in = depth[inside[:, 1], inside[:, 0]].astype(np.float64)
+    d_out = depth[out[:, 1], out[:, 0]].astype(np.float64)
+    has_n = np.any(normals != 0.0, axis=1)
+    return has_n & (lab_o > 0) & (lab_o != labels) & (d_out - d_in < contact_mm)
+
+
 def rim_depth(front_mm: np.ndarray, back_mm: np.ndarray, same_object: np.ndarray,
               max_chord_mm: float = MAX_RIM_CHORD_MM) -> np.ndarray:
     """Depth (mm) of the rim -- where the viewing ray grazes the surface -- seen at contour pixels

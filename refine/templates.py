@@ -11,7 +11,7 @@ import numpy as np
 from ..geometry.se3 import inv_T
 from ..render import Renderer
 from .contour_match import appearance_offsets, contour_normals, match_contour_to_blur
-from .edge import all_contour_points, all_interior_points, contour_points, interior_points, subsample
+from .edge import all_contour_points, all_interior_points, contact_samples, contour_points, interior_points, subsample
 from .jacobians import backproject_px
 from .srgb import encode_u8
 from .srgb import tables as srgb_tables
@@ -232,7 +232,7 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          image: np.ndarray | None = None, normals: bool = False,
                          appearance_color: np.ndarray | None = None,
                          interior_max_turn_deg: float = 0.0, interior_min_sharpness: float = 0.0,
-                         contact_mm: float = 0.0) -> EdgeCandidates:
+                         contact_mm: float = 0.0, normals_contact_mm: float = 0.0) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -250,7 +250,9 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     candidates are kept. ``interior_min_sharpness`` > 0: interior texture candidates only where
     the template's edge is sharp (:func:`ycbvss.refine.interior_edges.sharp_at`). ``contact_mm`` > 0:
     no contour samples where another object's surface lies less than that far behind (contact
-    lines, see :func:`ycbvss.refine.edge.all_contour_points`)."""
+    lines, see :func:`ycbvss.refine.edge.all_contour_points`). ``normals_contact_mm`` > 0 (with
+    ``normals``): only the contour samples on contact lines (:func:`ycbvss.refine.edge.contact_samples`
+    with that distance) keep their normals, the others get zero rows (f_edge's contact-offset nuisance)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
                                         contact_mm=contact_mm)
     if blur_sigma_px is not None:
@@ -266,6 +268,9 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                                          texture_max_turn_deg=interior_max_turn_deg, surface_normal=vr.normal,
                                          texture_min_sharpness=interior_min_sharpness)
     n_c = contour_normals(uv_c, l_c, vr.instance, blur_sigma_px or 1.0) if normals else None
+    if n_c is not None and normals_contact_mm > 0.0:
+        n_c[~contact_samples(vr.instance, vr.depth_mm, geo if blur_sigma_px is not None else uv_c, n_c, l_c,
+                             normals_contact_mm)] = 0.0
     return EdgeCandidates(uv_c, d_c, l_c, uv_i, d_i, l_i, n_c)
 
 

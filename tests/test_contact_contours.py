@@ -47,3 +47,22 @@ def test_occlusion_boundary_with_a_depth_gap_is_kept():
     uv1, _, lab1 = all_contour_points(inst, depth, contact_mm=10.0)
     assert _bottom_row_samples(uv1, lab1) == _bottom_row_samples(uv0, lab0) == 18
     assert len(uv1) == len(uv0)
+
+
+def test_contact_samples_marks_the_contact_line_only():
+    """``contact_samples`` (f_edge's contact-offset nuisance) marks exactly the samples that
+    ``contact_mm`` would drop: label 1's lower boundary against label 2 4 mm behind (its 18 pixels
+    between the corners; a corner pixel also borders the background, so it stays a contour pixel),
+    not its free sides, and nothing when label 2 lies 40 mm behind."""
+    from ycbvss.refine.contour_match import contour_normals
+    from ycbvss.refine.edge import contact_samples
+
+    for gap_mm, expected in ((4.0, 18), (40.0, 0)):
+        inst, depth = _two_blocks(gap_mm)
+        uv, _, lab = all_contour_points(inst, depth)
+        n = contour_normals(uv, lab, inst, 1.0)
+        c = contact_samples(inst, depth, uv, n, lab, 10.0)
+        assert int(np.count_nonzero(c & (lab == 1))) == expected
+        assert int(np.count_nonzero(c & (lab == 1) & ~np.isclose(uv[:, 1], 19.5))) == 0
+        kept = all_contour_points(inst, depth, contact_mm=10.0)[2]
+        assert int(np.count_nonzero(lab == 1)) - int(np.count_nonzero(kept == 1)) == expected

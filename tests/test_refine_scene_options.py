@@ -163,3 +163,15 @@ def test_the_sharpness_gate_is_resolved_per_keyframe_bundle_from_its_baseline_gr
 def test_an_unknown_sharpness_bundle_group_is_an_error_naming_the_option():
     with pytest.raises(YcbvssError, match="interior_sharpness_bundles"):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(interior_sharpness_bundles="long"))
+
+
+def test_the_contact_offset_and_the_dilation_nuisance_cannot_both_be_on():
+    with pytest.raises(YcbvssError, match="edge_contact_offset_k"):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {},
+                     RefineOptions(edge_contact_offset_k=1.0, edge_dilation_k=5.0))
+
+
+@pytest.mark.parametrize("name", ["edge_contact_offset_k", "contact_offset_mm"])
+def test_a_bad_contact_offset_option_is_an_error_naming_it(name):
+    with pytest.raises(YcbvssError, match=name):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**{name: -1.0}))
