@@ -76,10 +76,8 @@ def main() -> None:
 
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.geometry.se3 import inv_T
-    from ycbvss.io.bop import load_bop_scene
     from ycbvss.io.images import write_png
-    from ycbvss.pipeline import suite_run as S
-    from ycbvss.pipeline.suite import build_suite, clips_of
+    from ycbvss.pipeline.suite import load_clip
     from ycbvss.refine.edge import edge_field
     from ycbvss.refine.jacobians import backproject_px
     from ycbvss.refine.templates import ensure_meshes, get_renderer, render_view, view_edge_candidates
@@ -96,11 +94,8 @@ def main() -> None:
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    root = Path(a.suite_root)
-    sid = int(a.clip.split("-")[1])
-    models, specs = build_suite(a.dataset, root, "ycbv21", scene_ids=[sid])
-    clip = next(c for sp in specs for c in clips_of(sp) if c.name == a.clip)
-    frames = {f.im_id: f for f in S.clip_scene(load_bop_scene(root / "test", sid, models), clip).frames}
+    models, sc = load_clip(a.dataset, a.suite_root, a.clip)
+    frames = {f.im_id: f for f in sc.frames}
     axis = "xyz".index(a.axis)
     centre = np.asarray(models[a.obj].vertices_mm, np.float64).mean(0)
     r = get_renderer()

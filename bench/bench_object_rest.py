@@ -50,9 +50,8 @@ def main() -> None:
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.geometry.so3 import log_so3
     from ycbvss.io.images import write_png
-    from ycbvss.io.bop import load_bop_scene
     from ycbvss.pipeline import suite_run as S
-    from ycbvss.pipeline.suite import build_suite, clips_of
+    from ycbvss.pipeline.suite import load_clip
     from ycbvss.refine.bundle import RefineOptions, refine_scene
     from ycbvss.refine.templates import ensure_meshes, get_renderer, mesh_key
 
@@ -68,11 +67,7 @@ def main() -> None:
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    root = Path(a.suite_root)
-    sid = int(a.clip.split("-")[1])
-    models, specs = build_suite(a.dataset, root, "ycbv21", scene_ids=[sid])
-    clip = next(c for sp in specs for c in clips_of(sp) if c.name == a.clip)
-    sc = S.clip_scene(load_bop_scene(root / "test", sid, models), clip)
+    models, sc = load_clip(a.dataset, a.suite_root, a.clip)
     gt = {(f.im_id, i.obj_id): i.T_m2c for f in sc.frames for i in f.instances}
     frames = {f.im_id: f for f in sc.frames}
     rows = []

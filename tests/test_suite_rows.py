@@ -1,4 +1,4 @@
-"""Rows of the validation suite: the model-frame rotation error and appending to an older rows file."""
+"""Rows of the validation suite: the model-frame rotation error and appending to an older rows file; a clip named wrongly."""
 from __future__ import annotations
 
 import csv
@@ -48,3 +48,14 @@ def test_resumed_run_appends_in_the_old_files_columns(tmp_path, monkeypatch):
     got = list(csv.DictReader(open(rows_path)))
     assert list(got[1].keys()) == old and all(v == "2" for v in got[1].values())
     assert len(suite_run.read_rows(rows_path)) == 2
+
+
+def test_load_clip_names_a_bad_clip_name_before_building_anything(tmp_path):
+    import pytest
+
+    from ycbvss.errors import YcbvssError
+    from ycbvss.pipeline.suite import load_clip
+
+    with pytest.raises(YcbvssError, match="medium"):
+        load_clip(tmp_path / "no-dataset", tmp_path / "suite", "medium")
+    assert not (tmp_path / "suite").exists()

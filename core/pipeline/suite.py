@@ -25,7 +25,7 @@ from ..convert import convert_models
 from ..errors import YcbvssError
 from ..gt_info import compute_gt_info
 from ..io.atomic import read_json, write_json_atomic
-from ..io.bop import BopSceneWriter, load_models
+from ..io.bop import BopSceneWriter, load_bop_scene, load_models
 from ..io.ycbv import load_ycbv_models
 from ..manifest import object_names
 from ..procedural.ycbv_scene import make_ycbv_scene
@@ -188,6 +188,22 @@ def build_suite(src: str | Path, root: str | Path, suite: str = "ycbv21", scene_
     for spec in specs:
         build_scene(spec, models, root, width, height, samples, quiet=quiet)
     return models, specs
+
+
+def load_clip(src: str | Path, root: str | Path, clip_name: str, suite: str = "ycbv21",
+              quiet: bool = False) -> tuple[dict, Scene]:
+    """(models, scene of the clip's frames) of the suite clip named ``clip_name`` (e.g. "medium-4"),
+    its scene built (or read from the cache under ``root``) from the YCB-V models of ``src``."""
+    try:
+        sid = int(clip_name.rsplit("-", 1)[1])
+    except (IndexError, ValueError):
+        raise YcbvssError(f"not a suite clip name: {clip_name!r} (e.g. medium-4)") from None
+    models, specs = build_suite(src, root, suite, scene_ids=[sid], quiet=quiet)
+    clip = next((c for sp in specs for c in clips_of(sp) if c.name == clip_name), None)
+    if clip is None:
+        raise YcbvssError(f"suite {suite} scene {sid} has no clip {clip_name!r} "
+                          f"(clips: {[c.name for sp in specs for c in clips_of(sp)]})")
+    return models, clip_scene(load_bop_scene(Path(root) / "test", sid, models), clip)
 
 
 def clip_scene(scene: Scene, clip: Clip) -> Scene:
