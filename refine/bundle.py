@@ -632,7 +632,9 @@ class _Stage:
             for j, X in select_edge_samples(vr, pb.views[i].K, cands, opt.n_edge_points, self.rng,
                                             normals=nrm).items():
                 if (i, j) in vis and len(X):
-                    groups.append(EdgeGroup(i, j, X, nrm.get(j) if nrm is not None else None))
+                    N = nrm.get(j) if nrm is not None else None
+                    # no sample carries a normal (no contact line here): no nuisance to marginalise
+                    groups.append(EdgeGroup(i, j, X, N if N is not None and N.any() else None))
         sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
         term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
                         curv_floor=opt.edge_curv_floor / sig,
