@@ -387,6 +387,15 @@ class RefineOptions:
     # and on the short clips (seed 0) the fallback turned short-1's banana 4.5 -> 6.5 deg
     ridge_fallback: bool = True
     ridge_fallback_mm: float = 3.0
+    # ... and only for an object not slowing down: its mean point move (mm) over the level's last 3
+    # outer iterations at least this fraction of its mean over the whole level (0: no such check).
+    # An object the coarse levels left far off converges at the finest level with one-way steps that
+    # shrink, and is no runaway: held-out suite medium-1, seed 5 (session 49), the banana converging
+    # 7.0 -> 0.44 mm over the cap's 18 iterations (last steps 0.26 of its mean) was put back to 7.0 mm
+    # with the large clamp (a runaway: 16.6 -> 27 mm, last steps 1.6 of its mean), and ended 6.4 mm off
+    # but 'converged' whenever the clamp stopped soon in the repeat; the foam brick's runaway on
+    # medium-4 (2.2 -> 16.8 deg) keeps ~0.9
+    ridge_fallback_speed: float = 0.5
     object_ridge: bool | str = "by_baseline"  # False: never; True: every level; "finest": the finest blur level only; "narrow": narrow-baseline bundles only; "by_baseline": see above
     pose_tol_mm: float = 0.05         # converged: the last outer iteration moved no pose more than this
     pose_tol_deg: float = 0.02
@@ -455,6 +464,7 @@ class _Stage:
         self.converged = False
         # objects (indices) still drifting one way when the finest level's iteration cap ended it
         self.drifting_objects: set[int] = set()
+        self.obj_steps_mm: list[np.ndarray] = []     # the last blur level's per-iteration object moves (_iterate)
         # every camera free while solving, the world moved back to the first camera after each solve
         # (RefineOptions.free_gauge; set by the keyframe bundle only)
         self.free_gauge = bool(np.all(pb.cam_free)) and len(pb.cam_free) > 0 and name == "keyframes"
@@ -963,6 +973,7 @@ class _Stage:
         terms = []
         prev_move, prev_obj, calm = None, None, 0
         outer, drift = -1, set()
+        self.obj_steps_mm = []     # per outer iteration, each object's point move (mm; m,)
         for outer in range(n_cap):
             terms = self.build_terms(fields, recompute_matches=(n_built + outer) % max(opt.match_every, 1) == 0)
             self._pending.clear()     # what the coarse-move check left and was not taken
@@ -991,6 +1002,7 @@ class _Stage:
             prev_move = move
             if pb.obj_free.any():     # per-object drift (the camera-only stages have no free object)
                 obj = _object_point_moves(st[1], st1[1], self.moments)
+                self.obj_steps_mm.append(np.linalg.norm(obj, axis=1))
                 drift = _drifting_rows(obj, prev_obj, opt.extend_mm) if prev_obj is not None else set()
                 prev_obj = obj
             if dmm < opt.pose_tol_mm and ddeg < opt.pose_tol_deg:
@@ -1035,7 +1047,12 @@ class _Stage:
                 # carried far by it at this level: back to the level's start, with the stalling
                 # world-origin ridge, and the level again
                 far = _rms_point_moves_mm(self._T_m_starts[-1], pb.T_m, self.moments)
-                back = sorted(j for j in drift if far[j] > opt.ridge_fallback_mm and pb.obj_moments[j] is not None)
+                speed = _recent_speed(np.array(self.obj_steps_mm))
+                back = sorted(j for j in drift if far[j] > opt.ridge_fallback_mm and pb.obj_moments[j] is not None
+                              and speed[j] >= opt.ridge_fallback_speed)
+                slowing = sorted(j for j in drift if far[j] > opt.ridge_fallback_mm and j not in back)
+                if slowing:
+                    self.stats.setdefault("ridge_fallback_slowing", []).append([int(pb.obj_ids[j]) for j in slowing])
             else:
                 back = []
             if back:
@@ -1148,6 +1165,19 @@ def _object_point_moves(T_a: np.ndarray, T_b: np.ndarray, moments: list) -> np.n
         out[j, :3] = (T_b[j][:3, :3] @ c + T_b[j][:3, 3]) - (T_a[j][:3, :3] @ c + T_a[j][:3, 3])
         out[j, 3:] = log_so3(T_b[j][:3, :3] @ T_a[j][:3, :3].T) * np.sqrt(max(np.trace(C), 0.0))
     return out
+
+
+def _recent_speed(steps_mm: np.ndarray, n_recent: int = 3) -> np.ndarray:
+    """Per object (m,): its mean move over the last ``n_recent`` outer iterations over its mean move
+    over all of them (``steps_mm`` (n_iter, m), mm). Near or above 1 a pose travels on at an even
+    or growing pace (a runaway); well below 1 its steps shrink, as a converging pose's do. 0 for an
+    object that never moved; inf where no iteration was recorded."""
+    steps_mm = np.asarray(steps_mm, float)
+    if steps_mm.ndim != 2 or len(steps_mm) == 0:
+        return np.full(steps_mm.shape[-1] if steps_mm.ndim == 2 else 0, np.inf)
+    mean_all = steps_mm.mean(axis=0)
+    recent = steps_mm[-n_recent:].mean(axis=0)
+    return np.where(mean_all > 0, recent / np.maximum(mean_all, 1e-12), 0.0)
 
 
 def _rms_point_moves_mm(T_a: np.ndarray, T_b: np.ndarray, moments: list) -> np.ndarray:
@@ -2003,7 +2033,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         raise YcbvssError(f"RefineOptions.table_contact_sigma_mm must be a finite number > 0, got "
                           f"{opt.table_contact_sigma_mm!r}", where=f"scene {scene.scene_id}")
     for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
-                 "ridge_fallback_mm", "edge_contact_offset_k", "contact_offset_mm"):
+                 "ridge_fallback_mm", "ridge_fallback_speed", "edge_contact_offset_k", "contact_offset_mm"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):
             raise YcbvssError(f"RefineOptions.{name} must be a finite number >= 0, got {v!r}", where=f"scene {scene.scene_id}")

@@ -127,7 +127,7 @@ def test_a_bad_contact_option_is_an_error_naming_it(name, bad):
 @pytest.mark.parametrize("kw", [dict(table_flow="rotation"), dict(table_flow=1), dict(table_levels="coarse"), dict(table_points=10),
                                 dict(table_points=500.0), dict(table_points=True), dict(table_span_deg=-1.0),
                                 dict(table_span_deg=float("nan")), dict(table_span_deg="30"),
-                                dict(ridge_fallback_mm=-1.0), dict(table_contact_sigma_mm=0.0),
+                                dict(ridge_fallback_mm=-1.0), dict(ridge_fallback_speed=float("nan")), dict(table_contact_sigma_mm=0.0),
                                 dict(table_contact_sigma_mm=float("inf")), dict(table_contact_sigma_mm="0.5")])
 def test_a_bad_table_option_is_an_error_naming_it(kw):
     with pytest.raises(YcbvssError, match=next(iter(kw))):

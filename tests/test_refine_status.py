@@ -451,17 +451,20 @@ def test_classify_a_pose_still_drifting_at_the_cap_is_uncertain():
     assert drift.confidence == pytest.approx(0.7 * base.confidence)
 
 
-@pytest.mark.parametrize("fallback,slide_mm,finest", [(True, 7.0, True), (False, 7.0, True), (True, 1.0, True),
-                                                     (True, 7.0, False)])
+@pytest.mark.parametrize("fallback,slide_mm,finest,decay", [(True, 7.0, True, 1.0), (False, 7.0, True, 1.0),
+                                                           (True, 1.0, True, 1.0), (True, 7.0, False, 1.0),
+                                                           (True, 7.0, True, 0.8)])
 def test_an_object_drifting_at_the_cap_runs_the_finest_level_again_with_the_stalling_ridge(monkeypatch, fallback,
-                                                                                           slide_mm, finest):
+                                                                                           slide_mm, finest, decay):
     """The finest level's control flow (its outer iterations faked): an object still drifting at
     the cap under the point-motion ridge goes back to the level's start and the level runs again
     with the world-origin ridge on that object only (RefineOptions.ridge_fallback); an object still
     drifting then is reported (drifting_objects -> status 'uncertain'). Without the fallback, or
     when the level carried the object less than ridge_fallback_mm (3 mm: a creep, not a runaway),
     the drifting object is reported at once; so too in a bundle with the point-motion ridge at every
-    level (narrow baselines), where the stalled turn is no fallback."""
+    level (narrow baselines), where the stalled turn is no fallback, and for an object whose steps
+    shrink (``decay`` 0.8 per iteration: a converging object, last 3 steps ~0.2 of its mean step
+    over the 18 iterations, under ridge_fallback_speed 0.5; it is named in the stats instead)."""
     import ycbvss.refine.bundle as B
     from ycbvss.refine.problem import BundleProblem, View, model_moments
 
@@ -480,15 +483,33 @@ def test_an_object_drifting_at_the_cap_runs_the_finest_level_again_with_the_stal
 
     def fake_iterate(fields, n_outer, n_cap, sopt, lam, sigma, n_built):
         calls.append((pb.T_m[0, 0, 3], [m is None for m in pb.obj_moments]))
+        steps = slide_mm * decay ** np.arange(n_cap) * (1 - decay) / (1 - decay ** n_cap) if decay < 1 \
+            else np.full(n_cap, slide_mm / n_cap)
+        st.obj_steps_mm = [np.array([d, 0.0]) for d in steps]
         pb.T_m[0, 0, 3] += slide_mm                 # object 4 slides sideways in every pass
         return False, ["term"], lam, n_cap - 1, {0}
 
     monkeypatch.setattr(st, "_iterate", fake_iterate)
     st.run([1.0])
-    if fallback and finest and slide_mm > st.opt.ridge_fallback_mm:
+    if fallback and finest and slide_mm > st.opt.ridge_fallback_mm and decay == 1.0:
         # the second pass starts from the level's start, object 4 alone without the point-motion ridge
         assert calls == [(0.0, [False, False]), (0.0, [True, False])]
         assert st.stats["ridge_fallback"] == [[4]]
     else:
         assert calls == [(0.0, [False, False])] and "ridge_fallback" not in st.stats
+        assert st.stats.get("ridge_fallback_slowing") == ([[4]] if decay < 1.0 else None)
     assert st.drifting_objects == {0}
+
+
+def test_recent_speed_tells_a_runaway_from_a_converging_pose():
+    """_recent_speed: last-3 mean step over the level's mean step, per object (column). The suite's
+    cases (session 49): the large clamp's even-to-growing steps, the banana's shrinking ones."""
+    from ycbvss.refine.bundle import _recent_speed
+
+    clamp = np.r_[np.full(10, 0.3), np.full(8, 1.0)]            # 16.6 -> 27 mm, speeding up
+    banana = 0.8 * 0.85 ** np.arange(18)                        # converging from 7 mm
+    still = np.zeros(18)
+    sp = _recent_speed(np.stack([clamp, banana, still], axis=1))
+    assert sp[0] == pytest.approx(1.0 / clamp.mean())
+    assert sp[0] > 1.5 and sp[1] < 0.25 and sp[2] == 0.0
+    assert _recent_speed(np.zeros((0, 3))).tolist() == [np.inf] * 3
