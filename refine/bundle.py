@@ -1066,7 +1066,9 @@ class _Stage:
                     return terms
             if li == len(sigmas) - 1:
                 self.stats["finest_iters"] = outer + 1
-                self.drifting_objects = set(drift)
+                # an object put back is held at a level start the coarse levels chose, by a ridge
+                # that stalls it: that it stopped there says nothing, so it is not 'converged'
+                self.drifting_objects = set(drift) | set(back)
         return terms
 
 
@@ -2104,9 +2106,13 @@ def _refine_scene_checked(scene, models: dict, init: dict, opt: RefineOptions, i
 
 def _slid_objects(res: "RefineResult", width_px: int) -> list[int]:
     """Objects whose projected centre moved further from their initial poses' than
-    :func:`ycbvss.refine.confidence.shift_limit_px` allows (the status's "projection moved" rule)."""
+    :func:`ycbvss.refine.confidence.shift_limit_px` allows (the status's "projection moved" rule),
+    and those the finest level's ridge fallback put back (``stats["ridge_fallback"]``: they ran away
+    from the basin the coarse levels left them in, which is what a slide out of the initial basin
+    usually means too)."""
+    fell = {int(o) for grp in res.stats.get("ridge_fallback", []) for o in grp}
     return sorted(o for o, q in res.quality.items()
-                  if q.get("shift_px", 0.0) > shift_limit_px(q.get("init_scatter_px", 0.0), width_px))
+                  if q.get("shift_px", 0.0) > shift_limit_px(q.get("init_scatter_px", 0.0), width_px) or int(o) in fell)
 
 
 def _refine_scene_pass(scene, models: dict, init: dict, opt: RefineOptions, images: dict | None

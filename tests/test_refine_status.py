@@ -464,7 +464,9 @@ def test_an_object_drifting_at_the_cap_runs_the_finest_level_again_with_the_stal
     the drifting object is reported at once; so too in a bundle with the point-motion ridge at every
     level (narrow baselines), where the stalled turn is no fallback, and for an object whose steps
     shrink (``decay`` 0.8 per iteration: a converging object, last 3 steps ~0.2 of its mean step
-    over the 18 iterations, under ridge_fallback_speed 0.5; it is named in the stats instead)."""
+    over the 18 iterations, under ridge_fallback_speed 0.5; it is named in the stats instead).
+    An object put back stays reported even when it no longer drifts in the repeat: the stalling
+    ridge holds it where the coarse levels left it, which is no evidence of convergence."""
     import ycbvss.refine.bundle as B
     from ycbvss.refine.problem import BundleProblem, View, model_moments
 
@@ -486,8 +488,8 @@ def test_an_object_drifting_at_the_cap_runs_the_finest_level_again_with_the_stal
         steps = slide_mm * decay ** np.arange(n_cap) * (1 - decay) / (1 - decay ** n_cap) if decay < 1 \
             else np.full(n_cap, slide_mm / n_cap)
         st.obj_steps_mm = [np.array([d, 0.0]) for d in steps]
-        pb.T_m[0, 0, 3] += slide_mm                 # object 4 slides sideways in every pass
-        return False, ["term"], lam, n_cap - 1, {0}
+        pb.T_m[0, 0, 3] += slide_mm                 # object 4 slides sideways in the first pass
+        return False, ["term"], lam, n_cap - 1, {0} if len(calls) == 1 else set()
 
     monkeypatch.setattr(st, "_iterate", fake_iterate)
     st.run([1.0])

@@ -283,8 +283,10 @@ def test_slide_restart_only_when_an_object_left_its_basin(scene4):
     assert all(np.array_equal(a.poses[k], b.poses[k]) for k in a.poses)
     lim = shift_limit_px(2.0, 640)
     fake = SimpleNamespace(quality={1: {"shift_px": lim + 1, "init_scatter_px": 2.0},
-                                    2: {"shift_px": lim - 1, "init_scatter_px": 2.0}, 3: {}})
+                                    2: {"shift_px": lim - 1, "init_scatter_px": 2.0}, 3: {}}, stats={})
     assert _slid_objects(fake, 640) == [1]
+    fake.stats["ridge_fallback"] = [[3]]          # put back by the finest level's ridge fallback: a runaway
+    assert _slid_objects(fake, 640) == [1, 3]
     from ycbvss.errors import YcbvssError
     with pytest.raises(YcbvssError, match="RefineOptions.slide_restart must be True, False or 'coarse'"):
         refine_scene(ps.scene, ps.models, gt, RefineOptions(slide_restart="narrow"), images=imgs)
