@@ -394,7 +394,9 @@ class RefineOptions:
     # 7.0 -> 0.44 mm over the cap's 18 iterations (last steps 0.26 of its mean) was put back to 7.0 mm
     # with the large clamp (a runaway: 16.6 -> 27 mm, last steps 1.6 of its mean), and ended 6.4 mm off
     # but 'converged' whenever the clamp stopped soon in the repeat; the foam brick's runaway on
-    # medium-4 (2.2 -> 16.8 deg) keeps ~0.9
+    # medium-4 (2.2 -> 16.8 deg) keeps ~0.9. An object put back is 'uncertain' whatever the repeat
+    # does (the stalling ridge holds it where the coarse levels left it: the clamp above stopped
+    # 16.65 mm off and read 'converged') and counts as slid for ``slide_restart``
     ridge_fallback_speed: float = 0.5
     object_ridge: bool | str = "by_baseline"  # False: never; True: every level; "finest": the finest blur level only; "narrow": narrow-baseline bundles only; "by_baseline": see above
     pose_tol_mm: float = 0.05         # converged: the last outer iteration moved no pose more than this
