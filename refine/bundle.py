@@ -2155,7 +2155,8 @@ def _refine_scene_pass(scene, models: dict, init: dict, opt: RefineOptions, imag
              for a in attempts]
     msg = (f"objects {_id_list(slid)} slid out of their initial basin: refined again " + "; ".join(parts)
            + ("" if kept else ", first result stands"))
-    note = {"objects": slid, "levels_px": kept["levels_px"] if kept else list(levels[1:]),
+    note = {"objects": slid, "ridge_fallback": res.stats.get("ridge_fallback", []),   # the first pass's put-back objects
+            "levels_px": kept["levels_px"] if kept else list(levels[1:]),
             "after": kept["after"] if kept else attempts[0]["after"], "kept": kept is not None,
             "attempts": [{k: a[k] for k in ("levels_px", "after", "kept")} for a in attempts]}
     _replay(best_w)

@@ -381,7 +381,8 @@ def test_slide_restart_goes_on_from_finer_levels(monkeypatch):
             lv = tuple(opt.edge_sigmas_px or (8.0, 4.0, 2.0, 1.0))
             calls.append(lv)
             return SimpleNamespace(stats={"edge_sigmas_px": list(lv), "total_s": 1.0, "baseline_group": "medium",
-                                          "slid": outcomes[lv]}, log=[{"stage": f"pass {lv}"}]), {}
+                                          "slid": outcomes[lv], "ridge_fallback": [outcomes[lv]] if len(lv) == 4 else []},
+                                   log=[{"stage": f"pass {lv}"}]), {}
 
         monkeypatch.setattr(B, "_refine_scene_once", once)
         monkeypatch.setattr(B, "_slid_objects", lambda res, width: res.stats["slid"])
@@ -393,6 +394,7 @@ def test_slide_restart_goes_on_from_finer_levels(monkeypatch):
     note = res.stats["slide_restart"]
     assert res.stats["edge_sigmas_px"] == [2.0, 1.0] and note["kept"] and note["levels_px"] == [2.0, 1.0]
     assert [a["kept"] for a in note["attempts"]] == [False, True] and res.stats["total_s"] == 3.0
+    assert note["ridge_fallback"] == [[19]]       # the first pass's put-back objects, for the suite's rows
     assert [e["stage"] for e in res.log].count("slide restart") == 2
 
     res, calls = run({(8.0, 4.0, 2.0, 1.0): [19], (4.0, 2.0, 1.0): [19, 5], (2.0, 1.0): [5]})

@@ -59,3 +59,15 @@ def test_load_clip_names_a_bad_clip_name_before_building_anything(tmp_path):
     with pytest.raises(YcbvssError, match="medium"):
         load_clip(tmp_path / "no-dataset", tmp_path / "suite", "medium")
     assert not (tmp_path / "suite").exists()
+
+
+def test_restart_flags_keep_the_first_pass_fallback_when_a_restart_is_kept():
+    """A put-back object makes the scene restart; the kept restart's own stats hold no fallback, so
+    the row flags take it from the restart note (suite medium-1 seed 5, session 49: the large clamp)."""
+    from ycbvss.pipeline.suite_run import restart_flags
+
+    kept = {"ridge_fallback": [], "slide_restart": {"objects": [19], "ridge_fallback": [[19]], "kept": True}}
+    assert restart_flags(kept) == ({19}, {19})
+    dropped = {"ridge_fallback": [[21]], "slide_restart": {"objects": [21], "ridge_fallback": [[21]], "kept": False}}
+    assert restart_flags(dropped) == ({21}, set())
+    assert restart_flags({}) == (set(), set())

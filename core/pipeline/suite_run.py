@@ -37,7 +37,7 @@ ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant",
               "tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "dx_mm", "dy_mm", "dz_mm", "init_add_mm", "init_prj_px",
               "sigma_tx_mm", "sigma_ty_mm", "sigma_tz_mm", "sigma_r_deg", "status", "confidence", "contour_px",
               "time_s", "n_frames", "contour_worst_px", "reason", "rx_obj_deg", "ry_obj_deg", "rz_obj_deg",
-              "interior_ncc", "turn_gain_ncc", "ridge_fallback")
+              "interior_ncc", "turn_gain_ncc", "ridge_fallback", "slide_restart")
 VARIANTS = {"using all": {}, "w/o f_edge": {"use_edge": False}, "w/o f_point": {"use_point": False},
             "w/o f_t": {"use_temporal": False}}
 
@@ -117,7 +117,7 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
     dt = time.perf_counter() - t0
     rows = []
     f = res.stats.get("sigma_scale", (1.0, 1.0, 1.0, 1.0))
-    fell_back = {o for grp in res.stats.get("ridge_fallback", []) for o in grp}
+    fell_back, restarted = restart_flags(res.stats)
     for oid in sorted({k[1] for k in gt}):
         keys = sorted(k for k in gt if k[1] == oid and k in res.poses)
         if not keys:
@@ -160,11 +160,24 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 # the refined pose's interior texture fit and its best turned copy's gain (refine.turn_check)
                 "interior_ncc": float(res.quality.get(oid, {}).get("interior_ncc", float("nan"))),
                 "turn_gain_ncc": float(res.quality.get(oid, {}).get("turn_gain_ncc", float("nan"))),
-                # 1: the object drifted at the finest level's cap and the level ran again (RefineOptions.ridge_fallback)
+                # 1: the object drifted at the finest level's cap and the level ran again (RefineOptions.ridge_fallback),
+                # in the returned pass or in the first pass before a kept slide restart
                 "ridge_fallback": int(oid in fell_back),
+                # 1: the object slid (or was put back) and the kept result is a restart without the coarsest level
+                "slide_restart": int(oid in restarted),
                 **dict(zip(("rx_obj_deg", "ry_obj_deg", "rz_obj_deg"),
                            rotation_error_in_model_deg(res.poses[k][:3, :3], gt[k][:3, :3])))})
     return rows
+
+
+def restart_flags(stats: dict) -> tuple[set[int], set[int]]:
+    """From a refinement's ``stats``: (objects the finest level's ridge fallback put back, in the
+    returned pass or in the first pass before a kept slide restart; objects whose kept result is a
+    slide restart's)."""
+    restart = stats.get("slide_restart", {})
+    restarted = {int(o) for o in restart.get("objects", [])} if restart.get("kept") else set()
+    groups = list(stats.get("ridge_fallback", [])) + (list(restart.get("ridge_fallback", [])) if restarted else [])
+    return {int(o) for grp in groups for o in grp}, restarted
 
 
 def plan(specs: list[SuiteScene], kinds=("short", "medium", "long"), seeds=(0,), inits=("paper",),
