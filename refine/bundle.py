@@ -2106,13 +2106,19 @@ def _refine_scene_checked(scene, models: dict, init: dict, opt: RefineOptions, i
     return res2
 
 
+def ridge_fallback_objects(groups: list) -> set[int]:
+    """Object ids in ``stats["ridge_fallback"]`` (one list of ids per fallback; the objects the
+    finest level's ridge fallback put back)."""
+    return {int(o) for grp in groups for o in grp}
+
+
 def _slid_objects(res: "RefineResult", width_px: int) -> list[int]:
     """Objects whose projected centre moved further from their initial poses' than
     :func:`ycbvss.refine.confidence.shift_limit_px` allows (the status's "projection moved" rule),
     and those the finest level's ridge fallback put back (``stats["ridge_fallback"]``: they ran away
     from the basin the coarse levels left them in, which is what a slide out of the initial basin
     usually means too)."""
-    fell = {int(o) for grp in res.stats.get("ridge_fallback", []) for o in grp}
+    fell = ridge_fallback_objects(res.stats.get("ridge_fallback", []))
     return sorted(o for o, q in res.quality.items()
                   if q.get("shift_px", 0.0) > shift_limit_px(q.get("init_scatter_px", 0.0), width_px) or int(o) in fell)
 

@@ -28,7 +28,7 @@ from ..geometry.so3 import log_so3
 from ..io.atomic import write_json_atomic
 from ..io.bop import load_bop_scene
 from ..progress import progress
-from ..refine.bundle import RefineOptions, refine_scene
+from ..refine.bundle import RefineOptions, refine_scene, ridge_fallback_objects
 from .perturb import perturb_poses
 from .suite import Clip, SuiteScene, build_suite, clip_scene, clips_of
 from .suite_report import visibility, write_report
@@ -177,7 +177,7 @@ def restart_flags(stats: dict) -> tuple[set[int], set[int]]:
     restart = stats.get("slide_restart", {})
     restarted = {int(o) for o in restart.get("objects", [])} if restart.get("kept") else set()
     groups = list(stats.get("ridge_fallback", [])) + (list(restart.get("ridge_fallback", [])) if restarted else [])
-    return {int(o) for grp in groups for o in grp}, restarted
+    return ridge_fallback_objects(groups), restarted
 
 
 def plan(specs: list[SuiteScene], kinds=("short", "medium", "long"), seeds=(0,), inits=("paper",),
