@@ -36,7 +36,7 @@ from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, ge
                         area_template, render_view, select_edge_samples, view_edge_candidates, with_area)
 from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
                     table_rotation, whitening)
-from .table_contact import TableContactTerm, mean_normal
+from .table_contact import TableContactTerm, mean_normal, normal_sigma_deg
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
@@ -308,9 +308,16 @@ class RefineOptions:
     # default since session 47 (bench/results/ycbv21/README.md): medium clips 1-9, paper init, seeds 0
     # and 5, tx/ty/tz/R/PRJ 0.118/0.134/0.503/0.259/0.166 -> 0.111/0.132/0.420/0.257/0.163, objects
     # meeting every medium target 12 -> 13, converged 0.971 -> 0.994; held out without medium-3
-    # tz 0.431 -> 0.410 mm, R 0.226 -> 0.230 deg. Only where table_flow is on (medium bundles)
-    table_contact: bool = True
+    # tz 0.431 -> 0.410 mm, R 0.226 -> 0.230 deg. True: where table_flow is on (medium bundles); a
+    # comma-separated list of baseline groups: on those scenes' keyframe bundles whether or not
+    # table_flow is (without it the pairs' homographies are measured for their normals only, and no
+    # rotation term is added)
+    table_contact: bool | str = True
     table_contact_sigma_mm: float = 0.5
+    # table contact only where the averaged table normal is measured this well (deg, its combined
+    # 1-sigma, refine.table_contact.normal_sigma_deg): a tilt of 0.05 deg over a 300 mm scene is
+    # 0.26 mm of height, half table_contact_sigma_mm
+    table_contact_normal_deg: float = 0.05
     min_visible_px: int = 30
     n_init_points: int = 200
     compute_uncertainty: bool = True
@@ -570,8 +577,11 @@ class _Stage:
             terms.append(self._temporal_term(renders))
         # the keyframe bundle only: in the camera-only stage of the non-keyframes (pairs a frame apart,
         # objects fixed) it left every object of the long-1 clip ~2 mm too close (session 45)
-        if opt.table_flow and self.pairs and self.name == "keyframes" and (self.at_finest or opt.table_levels == "all"):
-            terms.append(self._table_rotation_term(renders))
+        table_here = bool(self.pairs) and self.name == "keyframes" and (self.at_finest or opt.table_levels == "all")
+        if table_here and (opt.table_flow or opt.table_contact):
+            rot = self._table_rotation_term(renders)     # also measures the pairs' table normals
+            if opt.table_flow:
+                terms.append(rot)
             if opt.table_contact:
                 t = self._table_contact_term()
                 if t is not None:
@@ -807,8 +817,15 @@ class _Stage:
         n_cur, d_cur, _ = plane
         ns = [pb.T_c[k][:3, :3].T @ n for k, n, _ in self._table_normals.values()]
         # mean_normal weighs by the covariance's trace, which turning it into the world leaves as it is
-        n_w = mean_normal(ns, [c for _, _, c in self._table_normals.values()], n_cur)
+        covs = [c for _, _, c in self._table_normals.values()]
+        n_w = mean_normal(ns, covs, n_cur)
         if n_w is None:
+            return None
+        # the combined measurement's angular sigma: a camera that moves millimetres (the shared
+        # YCB-V clips) sees the plane's normal from no baseline at all, so no contact there
+        sig_deg = normal_sigma_deg(covs)
+        self.stats["table_normal_sigma_deg"] = round(sig_deg, 4)
+        if not sig_deg <= self.opt.table_contact_normal_deg:
             return None
         touching = [(j, self.hull_points[j]) for j, P in zip(known, pts) if float(np.min(P @ n_cur)) - d_cur < TOUCH_MM]
         self.stats["table_contact_objects"] = len(touching)
@@ -1899,7 +1916,12 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
         opt = dc_replace(opt, edge_rim_depth=group in _groups(opt.edge_rim_depth))
     if isinstance(opt.table_flow, str):          # likewise
         opt = dc_replace(opt, table_flow=group in _groups(opt.table_flow))
+    # True: with the table's rotation term; a group list: by the same group, with or without it
+    contact = (group in _groups(opt.table_contact)) if isinstance(opt.table_contact, str) else bool(opt.table_contact and opt.table_flow)
+    if contact is not opt.table_contact:
+        opt = dc_replace(opt, table_contact=contact)
     stats["table_flow"] = bool(opt.table_flow)
+    stats["table_contact"] = bool(opt.table_contact)
     stats["edge_rim_depth"] = bool(opt.edge_rim_depth)
     if opt.template_supersample > 1 and group not in _groups(opt.supersample_groups):
         opt = dc_replace(opt, template_supersample=1)
@@ -2032,6 +2054,10 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not (isinstance(opt.table_points, int) and not isinstance(opt.table_points, bool) and opt.table_points >= 50):
         raise YcbvssError(f"RefineOptions.table_points must be an integer >= 50, got {opt.table_points!r}",
                           where=f"scene {scene.scene_id}")
+    if not (isinstance(opt.table_contact_normal_deg, (int, float, np.floating)) and not isinstance(opt.table_contact_normal_deg, bool)
+            and np.isfinite(opt.table_contact_normal_deg) and opt.table_contact_normal_deg > 0.0):
+        raise YcbvssError(f"RefineOptions.table_contact_normal_deg must be a finite number > 0, got "
+                          f"{opt.table_contact_normal_deg!r}", where=f"scene {scene.scene_id}")
     if not (isinstance(opt.table_contact_sigma_mm, (int, float, np.floating)) and not isinstance(opt.table_contact_sigma_mm, bool)
             and np.isfinite(opt.table_contact_sigma_mm) and opt.table_contact_sigma_mm > 0.0):
         raise YcbvssError(f"RefineOptions.table_contact_sigma_mm must be a finite number > 0, got "
@@ -2048,6 +2074,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         group_specs["edge_rim_depth"] = opt.edge_rim_depth
     if isinstance(opt.table_flow, str):
         group_specs["table_flow"] = opt.table_flow
+    if isinstance(opt.table_contact, str):
+        group_specs["table_contact"] = opt.table_contact
     for name, spec in group_specs.items():
         try:
             _groups(spec)

@@ -55,6 +55,13 @@ def mean_normal(normals: list[np.ndarray], covs: list[np.ndarray], up: np.ndarra
     return acc / norm if norm > 0 else None
 
 
+def normal_sigma_deg(covs: list[np.ndarray]) -> float:
+    """Angular 1-sigma (deg) of the inverse-trace-weighted mean of normals with covariances
+    ``covs`` (3, 3; rad^2) taken as independent: sqrt(1 / sum 1/trace); inf without a usable one."""
+    inv = [1.0 / float(np.trace(c)) for c in covs if np.isfinite(np.trace(c)) and float(np.trace(c)) > 0]
+    return float(np.degrees(np.sqrt(1.0 / sum(inv)))) if inv else float("inf")
+
+
 @dataclass
 class TableContactTerm:
     """The touching objects' lowest points held to one plane of the measured normal (module

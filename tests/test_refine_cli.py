@@ -150,3 +150,4 @@ def test_cli_refine_no_table_contact_is_parsed_to_the_option():
     base = ["refine", "--dataset", "d", "--out", "o", "--init", "i"]
     assert p.parse_args(base + ["--no-table-contact"]).table_contact is False
     assert p.parse_args(base).table_contact is None          # None: RefineOptions' default (held)
+    assert p.parse_args(base + ["--table-contact", "narrow,medium"]).table_contact == "narrow,medium"

@@ -38,9 +38,9 @@ WIDE, MEDIUM, NARROW = [0, 20, 40, 60], [0, 10, 20], [0, 3, 6]     # baselines 6
                                              ("", set()), ("narrow", {"narrow"})])
 def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
     known = np.ones(3, bool)
-    # edge_rim_depth and table_flow bools, template_supersample 1: nothing else to resolve
+    # edge_rim_depth, table_flow and table_contact bools that stay, template_supersample 1: nothing else to resolve
     opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1,
-                        table_flow=False)
+                        table_flow=False, table_contact=False)
     for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
         stats: dict = {}
         got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
@@ -128,7 +128,9 @@ def test_a_bad_contact_option_is_an_error_naming_it(name, bad):
                                 dict(table_points=500.0), dict(table_points=True), dict(table_span_deg=-1.0),
                                 dict(table_span_deg=float("nan")), dict(table_span_deg="30"),
                                 dict(ridge_fallback_mm=-1.0), dict(ridge_fallback_speed=float("nan")), dict(table_contact_sigma_mm=0.0),
-                                dict(table_contact_sigma_mm=float("inf")), dict(table_contact_sigma_mm="0.5")])
+                                dict(table_contact_sigma_mm=float("inf")), dict(table_contact_sigma_mm="0.5"),
+                                dict(table_contact_normal_deg=0.0), dict(table_contact_normal_deg=float("nan")),
+                                dict(table_contact="long")])
 def test_a_bad_table_option_is_an_error_naming_it(kw):
     with pytest.raises(YcbvssError, match=next(iter(kw))):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**kw))
@@ -145,6 +147,21 @@ def test_table_flow_is_resolved_per_scene_from_the_keyframes_baseline_group(spec
         assert got.table_flow is (name in on)
         assert stats["table_flow"] is (name in on)
     assert opt.table_flow == spec
+
+
+@pytest.mark.parametrize("flow, contact, on", [("medium", True, {"medium"}), ("medium", False, set()),
+                                               (False, True, set()), ("medium", "narrow,medium", {"narrow", "medium"}),
+                                               (False, "narrow", {"narrow"}), ("wide", "", set())])
+def test_table_contact_is_resolved_per_scene_with_or_without_the_table_flow(flow, contact, on):
+    # True: wherever the rotation term is; a group list: on those groups' scenes whatever table_flow is
+    known = np.ones(3, bool)
+    opt = RefineOptions(table_flow=flow, table_contact=contact)
+    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
+        stats: dict = {}
+        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+        assert got.table_contact is (name in on)
+        assert stats["table_contact"] is (name in on)
+    assert opt.table_contact == contact
 
 
 def test_an_unknown_table_flow_group_is_an_error_naming_the_option():

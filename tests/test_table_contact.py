@@ -5,7 +5,7 @@ import trimesh
 
 from ycbvss.geometry.so3 import exp_so3
 from ycbvss.refine.problem import BundleProblem, View
-from ycbvss.refine.table_contact import TableContactTerm, lowest_point, mean_normal
+from ycbvss.refine.table_contact import TableContactTerm, lowest_point, mean_normal, normal_sigma_deg
 
 
 def _boxes_on_a_table(turn_deg=0.0):
@@ -98,3 +98,12 @@ def test_a_non_finite_pose_is_left_out_and_does_not_reach_the_others():
     assert len(lins) == 1 and {lins[0].a, lins[0].b} == {int(pb.obj_block[0]), int(pb.obj_block[2])}
     H, g = assemble(pb.n_blocks, lins)
     assert np.all(np.isfinite(H)) and np.all(np.isfinite(g))
+
+
+def test_normal_sigma_combines_the_measurements_and_ignores_unusable_ones():
+    one = np.diag([np.radians(0.1) ** 2, np.radians(0.1) ** 2, 0.0])     # 0.14 deg in the plane's tangent
+    assert abs(normal_sigma_deg([one]) - np.sqrt(2) * 0.1) < 1e-9
+    # four equal measurements: half the sigma of one
+    assert abs(normal_sigma_deg([one] * 4) - normal_sigma_deg([one]) / 2) < 1e-9
+    assert normal_sigma_deg([one, np.full((3, 3), np.nan), np.zeros((3, 3))]) == normal_sigma_deg([one])
+    assert normal_sigma_deg([]) == float("inf")

@@ -61,6 +61,10 @@ def register(sub) -> None:
                    help="with the table, do not hold the objects standing on it at one height above a plane of the "
                         "normal its homographies measure (ycbvss.refine.table_contact; default: held, "
                         "RefineOptions.table_contact)")
+    p.add_argument("--table-contact", dest="table_contact", default=None, metavar="GROUPS",
+                   help="hold the objects standing on the table at one height on the scenes of these viewing-"
+                        "baseline groups (comma-separated: narrow, medium, wide), with or without --table-flow "
+                        "(default: where the table's rotation term is on)")
     p.set_defaults(func=_run)
 
 
