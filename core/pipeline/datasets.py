@@ -34,6 +34,33 @@ def detect_split(root: Path) -> str:
     return cands[0]
 
 
+SYNTH_REPORT = "synth_report.json"
+
+
+def enlarged_model_scales(root: str | Path) -> dict[int, float]:
+    """Object id -> scale of the models a YCBV-SS dataset (written by ``ycbvss synth``, its
+    ``synth_report.json`` at the root) renders enlarged (scale > 1); {} for any other dataset.
+
+    Such a dataset's models are larger than the objects in the real frames, and its GT poses are
+    the source's annotations, so its objects do not stand on the real table with the models'
+    surfaces: on the shared clip 0001 the enlarged models' lowest points lie 7.4-12.3 mm below the
+    table plane of the real depth (scratch measurement, session 50). The pipeline therefore turns
+    the table contact off on such datasets (``RefineOptions.table_contact``)."""
+    p = Path(root) / SYNTH_REPORT
+    if not p.is_file():
+        return {}
+    objs = read_json(p, "synthesis report").get("objects", {})
+    out = {}
+    for k, v in (objs.items() if isinstance(objs, dict) else ()):
+        try:
+            sc = float(v.get("scale", 1.0))
+        except (TypeError, ValueError, AttributeError):
+            continue
+        if sc > 1.0:
+            out[int(k)] = sc
+    return out
+
+
 def apply_object_meta(models: dict, models_dir: Path) -> None:
     """Names / textureless flags from ``ycbvss_objects.json`` (written for procedural models)."""
     p = Path(models_dir) / OBJECTS_META

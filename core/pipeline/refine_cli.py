@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -104,6 +105,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..io.ycbv import parse_videos
     from ..parallel import run_jobs
     from ..refine.bundle import RefineOptions
+    from .datasets import enlarged_model_scales
     args.split = resolve_split(args.dataset, args.split)
     scenes = None if args.scenes is None else parse_videos(",".join(args.scenes), "scene list")
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)
@@ -116,6 +118,10 @@ def _run(args: argparse.Namespace) -> int:
         opt.table_flow = {"all": True, "none": False}.get(args.table_flow, args.table_flow)
     if args.table_contact is not None:
         opt.table_contact = args.table_contact
+    elif enlarged_model_scales(args.dataset):
+        opt.table_contact = False
+        print("ycbvss: the dataset's models are enlarged (YCBV-SS, synth_report.json), so its objects do not "
+              "stand on the table with their models' surfaces: table contact off", file=sys.stderr)
     if not (opt.use_edge or opt.use_point):
         raise YcbvssError("at least one of the edge and point terms is needed (both disabled)")
     csv_init = None

@@ -30,7 +30,7 @@ from ..refine.bundle import RefineOptions, refine_scene
 from ..scene import Scene
 from ..synth.run import SynthOptions, run_synth
 from . import report as rep
-from .datasets import open_dataset, select_frames
+from .datasets import enlarged_model_scales, open_dataset, select_frames
 from .perturb import perturb_poses
 from .pose_sets import pose_set_errors
 
@@ -270,6 +270,8 @@ def run_validate(opts: ValidateOptions, stages: Stages | None = None) -> dict:
         pr = perturb_poses(gt, Ks, pts, opts.init_add_mm, opts.init_prj_px, seed=opts.seed)
         print("ycbvss: " + pr.summary(), file=sys.stderr)
     variants = dict(VARIANTS) if opts.ablation else {"using all": {}}
+    if enlarged_model_scales(root):     # YCBV-SS: enlarged models, so no table contact (see there)
+        variants = {k: {**v, "table_contact": False} for k, v in variants.items()}
     with stages.stage("bundle pose refinement" + (" + ablations" if opts.ablation else "")):
         refined = refine_all(scenes, models, pr.poses, variants, opts)
     with stages.stage("evaluate"):
