@@ -311,8 +311,12 @@ class RefineOptions:
     # tz 0.431 -> 0.410 mm, R 0.226 -> 0.230 deg. True: where table_flow is on (medium bundles); a
     # comma-separated list of baseline groups: on those scenes' keyframe bundles whether or not
     # table_flow is (without it the pairs' homographies are measured for their normals only, and no
-    # rotation term is added)
-    table_contact: bool | str = True
+    # rotation term is added). On narrow (short) bundles too since session 50: a 7-degree clip
+    # measures the normal within ~0.03 deg (suite short-1), and the contact shares out the objects'
+    # apparent-size depth biases (short clips 1-9, seeds 0 and 5: tz 1.463 -> 1.251 mm, objects
+    # meeting every short target 12 -> 14 of 21; bench/results/ycbv21/README.md, session 50). Off on
+    # YCBV-SS datasets (enlarged models; ycbvss.pipeline.datasets.enlarged_model_scales)
+    table_contact: bool | str = "narrow,medium"
     table_contact_sigma_mm: float = 0.5
     # table contact only where the averaged table normal is measured this well (deg, its combined
     # 1-sigma, refine.table_contact.normal_sigma_deg): a tilt of 0.05 deg over a 300 mm scene is
