@@ -813,6 +813,14 @@ class _Stage:
                  and np.all(np.isfinite(pb.T_m[j]))]
         if len(known) < 3 or not self._table_normals:
             return None
+        # the combined measurement's angular sigma, checked before any hull is built: a camera that
+        # moves millimetres (the shared YCB-V clips) sees the plane's normal from no baseline at all,
+        # so no contact there
+        covs = [c for _, _, c in self._table_normals.values()]
+        sig_deg = normal_sigma_deg(covs)
+        self.stats["table_normal_sigma_deg"] = round(sig_deg, 4)
+        if not sig_deg <= self.opt.table_contact_normal_deg:
+            return None
         pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
         centres = np.stack([inv_T(T)[:3, 3] for T in pb.T_c])
         plane = support_plane(pts, centres)
@@ -821,15 +829,8 @@ class _Stage:
         n_cur, d_cur, _ = plane
         ns = [pb.T_c[k][:3, :3].T @ n for k, n, _ in self._table_normals.values()]
         # mean_normal weighs by the covariance's trace, which turning it into the world leaves as it is
-        covs = [c for _, _, c in self._table_normals.values()]
         n_w = mean_normal(ns, covs, n_cur)
         if n_w is None:
-            return None
-        # the combined measurement's angular sigma: a camera that moves millimetres (the shared
-        # YCB-V clips) sees the plane's normal from no baseline at all, so no contact there
-        sig_deg = normal_sigma_deg(covs)
-        self.stats["table_normal_sigma_deg"] = round(sig_deg, 4)
-        if not sig_deg <= self.opt.table_contact_normal_deg:
             return None
         touching = [(j, self.hull_points[j]) for j, P in zip(known, pts) if float(np.min(P @ n_cur)) - d_cur < TOUCH_MM]
         self.stats["table_contact_objects"] = len(touching)

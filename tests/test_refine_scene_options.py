@@ -34,16 +34,20 @@ def _pb(angles_deg):
 WIDE, MEDIUM, NARROW = [0, 20, 40, 60], [0, 10, 20], [0, 3, 6]     # baselines 60, 20, 6 deg
 
 
+def _resolved(opt):
+    """(group name, options, stats) of ``_scene_options`` on a wide, a medium and a narrow scene."""
+    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
+        stats: dict = {}
+        yield name, _scene_options(opt, _pb(angles), list(range(len(angles))), np.ones(3, bool), stats), stats
+
+
 @pytest.mark.parametrize("groups, removed", [("medium,wide", {"wide", "medium"}), ("wide", {"wide"}),
                                              ("", set()), ("narrow", {"narrow"})])
 def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
-    known = np.ones(3, bool)
     # edge_rim_depth, table_flow and table_contact bools that stay, template_supersample 1: nothing else to resolve
     opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1,
                         table_flow=False, table_contact=False)
-    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
-        stats: dict = {}
-        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+    for name, got, stats in _resolved(opt):
         assert stats["bias_removal"] is (name in removed)
         if name in removed:
             assert all(getattr(got, k) == v for k, v in BIAS_REMOVAL.items())
@@ -69,11 +73,8 @@ def test_an_unknown_flow_prior_levels_is_an_error_naming_the_option():
 @pytest.mark.parametrize("spec, on", [("wide", {"wide"}), ("medium,wide", {"medium", "wide"}), ("", set()),
                                       (True, {"wide", "medium", "narrow"}), (False, set())])
 def test_rim_depth_is_resolved_per_scene_from_the_keyframes_baseline_group(spec, on):
-    known = np.ones(3, bool)
     opt = RefineOptions(edge_rim_depth=spec)
-    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
-        stats: dict = {}
-        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+    for name, got, stats in _resolved(opt):
         assert got.edge_rim_depth is (name in on)          # always a bool after resolution
         assert stats["edge_rim_depth"] is (name in on)
     assert opt.edge_rim_depth == spec                       # the caller's options untouched
@@ -91,11 +92,8 @@ def test_an_unknown_rim_depth_group_is_an_error_naming_the_option():
 @pytest.mark.parametrize("spec, on", [("wide", {"wide"}), ("medium,wide", {"medium", "wide"}), ("", set()),
                                       ("narrow,medium,wide", {"wide", "medium", "narrow"})])
 def test_template_supersample_is_resolved_per_scene_from_the_keyframes_baseline_group(spec, on):
-    known = np.ones(3, bool)
     opt = RefineOptions(supersample_groups=spec, template_supersample=3)
-    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
-        stats: dict = {}
-        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+    for name, got, stats in _resolved(opt):
         assert got.template_supersample == (3 if name in on else 1)
         assert stats["template_supersample"] == got.template_supersample
     assert opt.template_supersample == 3                        # the caller's options untouched
@@ -139,11 +137,8 @@ def test_a_bad_table_option_is_an_error_naming_it(kw):
 @pytest.mark.parametrize("spec, on", [("medium", {"medium"}), ("medium,wide", {"medium", "wide"}), ("", set()),
                                       (True, {"wide", "medium", "narrow"}), (False, set())])
 def test_table_flow_is_resolved_per_scene_from_the_keyframes_baseline_group(spec, on):
-    known = np.ones(3, bool)
     opt = RefineOptions(table_flow=spec)
-    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
-        stats: dict = {}
-        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+    for name, got, stats in _resolved(opt):
         assert got.table_flow is (name in on)
         assert stats["table_flow"] is (name in on)
     assert opt.table_flow == spec
@@ -154,11 +149,8 @@ def test_table_flow_is_resolved_per_scene_from_the_keyframes_baseline_group(spec
                                                (False, "narrow", {"narrow"}), ("wide", "", set())])
 def test_table_contact_is_resolved_per_scene_with_or_without_the_table_flow(flow, contact, on):
     # True: wherever the rotation term is; a group list: on those groups' scenes whatever table_flow is
-    known = np.ones(3, bool)
     opt = RefineOptions(table_flow=flow, table_contact=contact)
-    for name, angles in (("wide", WIDE), ("medium", MEDIUM), ("narrow", NARROW)):
-        stats: dict = {}
-        got = _scene_options(opt, _pb(angles), list(range(len(angles))), known, stats)
+    for name, got, stats in _resolved(opt):
         assert got.table_contact is (name in on)
         assert stats["table_contact"] is (name in on)
     assert opt.table_contact == contact
