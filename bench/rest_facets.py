@@ -6,8 +6,8 @@ hold that facet's normal to the measured table normal (two rotation degrees of f
 on top of ``table_contact``'s height). It can only be as sharp as the rest facet is distinct: if
 other hull facets have normals within a fraction of a degree of it, the prior pulls to whichever
 is nearest at the current estimate, and the short clips' targets are 0.3 deg (0.2 deg on long
-clips). For each of trimesh's quasi-static stable poses of a model's convex hull (probability >=
-``--min-prob``), this bench writes the number of hull faces that form the rest facet (normals
+clips). For each resting pose the suite's scene generator draws from (trimesh's quasi-static stable
+poses of the convex hull, probability >= ``--min-prob``, at most ``--max-n``), this bench writes the number of hull faces that form the rest facet (normals
 within 0.2 deg of the downward direction), the next distinct facet normal's angle (deg), the
 rest facet's narrowest width (mm) and the number of hull faces within 5 deg, as Markdown and CSV.
 
@@ -24,6 +24,7 @@ import trimesh
 
 from ycbvss.io.atomic import atomic_path, write_text_atomic
 from ycbvss.io.ycbv import load_ycbv_models
+from ycbvss.procedural.ycbv_scene import rest_poses
 
 
 def min_width_mm(points_mm: np.ndarray, normal: np.ndarray, n_dirs: int = 180) -> float:
@@ -39,13 +40,12 @@ def min_width_mm(points_mm: np.ndarray, normal: np.ndarray, n_dirs: int = 180) -
     return float(np.min(np.ptp(xy @ np.stack([np.cos(a), np.sin(a)]), axis=0)))
 
 
-def rest_facets(hull: trimesh.Trimesh, min_prob: float, same_deg: float = 0.2) -> list[dict]:
-    """One record per stable pose of ``hull`` (mm) with probability >= ``min_prob``."""
-    T, p = trimesh.poses.compute_stable_poses(hull, n_samples=1, threshold=0.0, sigma=0.0)
+def rest_facets(mesh: trimesh.Trimesh, min_prob: float, max_n: int, same_deg: float = 0.2) -> list[dict]:
+    """One record per resting pose of ``mesh`` (mm) that the suite's scene generator draws from
+    (:func:`ycbvss.procedural.ycbv_scene.rest_poses`)."""
+    hull = mesh.convex_hull
     out = []
-    for Ti, pi in zip(T, p):
-        if pi < min_prob:
-            continue
+    for Ti, pi in rest_poses(mesh, min_prob=min_prob, max_n=max_n):
         down = Ti[:3, :3].T @ np.array([0.0, 0.0, -1.0])       # model frame
         ang = np.degrees(np.arccos(np.clip(hull.face_normals @ down, -1.0, 1.0)))
         rest = ang < same_deg
@@ -60,13 +60,14 @@ def rest_facets(hull: trimesh.Trimesh, min_prob: float, same_deg: float = 0.2) -
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--models", required=True, help="YCB-V root (original layout) with models/")
-    ap.add_argument("--min-prob", type=float, default=0.08)
+    ap.add_argument("--min-prob", type=float, default=0.08, help="as the suite's generator (rest_poses)")
+    ap.add_argument("--max-n", type=int, default=3, help="poses per object, as the suite's generator")
     ap.add_argument("--out", required=True, help="output stem (writes .md and .csv)")
     a = ap.parse_args(argv)
     rows = []
     for oid, m in sorted(load_ycbv_models(a.models).items()):
-        hull = trimesh.Trimesh(np.asarray(m.vertices_mm, float), process=True).convex_hull
-        for r in rest_facets(hull, a.min_prob):
+        mesh = trimesh.Trimesh(np.asarray(m.vertices_mm, float), process=True)
+        for r in rest_facets(mesh, a.min_prob, a.max_n):
             rows.append({"obj_id": oid, "object": m.name, **r})
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)

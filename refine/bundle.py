@@ -314,7 +314,8 @@ class RefineOptions:
     # rotation term is added). On narrow (short) bundles too since session 50: a 7-degree clip
     # measures the normal within ~0.03 deg (suite short-1), and the contact shares out the objects'
     # apparent-size depth biases (short clips 1-9, seeds 0 and 5: tz 1.463 -> 1.251 mm, objects
-    # meeting every short target 12 -> 14 of 21; bench/results/ycbv21/README.md, session 50). Off on
+    # meeting every short target 12 -> 14 of 21, session 50; over seeds 0-9, session 51: tz 1.10 mm,
+    # 14 of 21, against session 37's 1.38 mm, 11 of 21; bench/results/ycbv21/README.md). Off on
     # YCBV-SS datasets (enlarged models; ycbvss.pipeline.datasets.enlarged_model_scales)
     table_contact: bool | str = "narrow,medium"
     table_contact_sigma_mm: float = 0.5
