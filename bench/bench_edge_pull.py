@@ -17,8 +17,8 @@ cost). The samples are split into
 - interior samples,
 
 written as Markdown / CSV / LaTeX (``edge_pull.*``) and as a PNG per frame (``edge_pull_<frame>.png``:
-the image magnified, each sample a dot sized by its pull, red = pushes the turn negative, blue =
-positive; interior samples as rings).
+the image magnified, each sample a dot sized by its pull, blue = dE / d deg > 0 (pushes the turn
+negative), red = dE / d deg < 0; interior samples as rings).
 
     python bench/bench_edge_pull.py --dataset ../shared/data/ycbv --suite-root /tmp/suite/full \
         --clip medium-4 --obj 21 --axis z --frames 0,20,40,58 --out bench/results/ycbv21/edge_pull

@@ -148,6 +148,9 @@ class RefineOptions:
     # clips with touching objects too (long-1 from the GT 0.380 -> 0.352 mm): the tables of record
     # would all have to be re-measured
     edge_contact_mm: float = 0.0
+    # > 0: no contour samples within this many px (640-px-wide images; scaled with the width) of
+    # where their object borders a nearer one (T-junctions, refine.edge.junction_mask)
+    edge_junction_px: float = 0.0
     # > 0: instead of being dropped, the contour samples on contact lines (another object's surface
     # less than ``contact_offset_mm`` behind the silhouette: an object resting on another) share one
     # outward offset per (view, object) that is marginalised out of f_edge at the finest level (the
@@ -616,6 +619,11 @@ class _Stage:
             return None
         return next(iter(fields.values())).sigma_px
 
+    @property
+    def junction_px(self) -> float:
+        """RefineOptions.edge_junction_px at this bundle's image width."""
+        return self.opt.edge_junction_px * self.pb.views[0].width / 640.0 if self.pb.views else 0.0
+
     def _edge_options(self, fields: dict) -> dict:
         """This level's options of f_edge's candidates: ``kw`` for :func:`view_edge_candidates`,
         ``app`` (contour appearance from the image), ``lit`` (from the lit template) and ``dil``
@@ -632,7 +640,7 @@ class _Stage:
         sharp = self.min_sharpness if self.at_finest else 0.0
         kw = dict(creases=opt.edge_creases, interior_max_turn_deg=self._turn_gate(), interior_min_sharpness=sharp,
                   fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur, normals=dil,
-                  contact_mm=opt.edge_contact_mm,
+                  contact_mm=opt.edge_contact_mm, junction_px=self.junction_px,
                   normals_contact_mm=opt.contact_offset_mm if dil and opt.edge_contact_offset_k > 0.0 else 0.0)
         return {"kw": kw, "app": app, "lit": app and self.shading, "dil": dil}
 
@@ -898,7 +906,7 @@ class _Stage:
             jobs.append((i, vr, _view_pool().submit(
                 view_edge_candidates, vr, creases=opt.edge_creases, interior_max_turn_deg=self._turn_gate(),
                 fold_min_angle_deg=self.fold_angle, blur_sigma_px=self._blur_match_sigma(fields),
-                contact_mm=opt.edge_contact_mm)))
+                contact_mm=opt.edge_contact_mm, junction_px=self.junction_px)))
         for i, vr, job in jobs:
             for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, rng).items():
                 if len(X) >= opt.min_visible_px:
@@ -2068,7 +2076,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
             and np.isfinite(opt.table_contact_sigma_mm) and opt.table_contact_sigma_mm > 0.0):
         raise YcbvssError(f"RefineOptions.table_contact_sigma_mm must be a finite number > 0, got "
                           f"{opt.table_contact_sigma_mm!r}", where=f"scene {scene.scene_id}")
-    for name in ("edge_contact_mm", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
+    for name in ("edge_contact_mm", "edge_junction_px", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
                  "ridge_fallback_mm", "ridge_fallback_speed", "edge_contact_offset_k", "contact_offset_mm"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):

@@ -232,7 +232,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          image: np.ndarray | None = None, normals: bool = False,
                          appearance_color: np.ndarray | None = None,
                          interior_max_turn_deg: float = 0.0, interior_min_sharpness: float = 0.0,
-                         contact_mm: float = 0.0, normals_contact_mm: float = 0.0) -> EdgeCandidates:
+                         contact_mm: float = 0.0, normals_contact_mm: float = 0.0,
+                         junction_px: float = 0.0) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -252,9 +253,11 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     no contour samples where another object's surface lies less than that far behind (contact
     lines, see :func:`ycbvss.refine.edge.all_contour_points`). ``normals_contact_mm`` > 0 (with
     ``normals``): only the contour samples on contact lines (:func:`ycbvss.refine.edge.contact_samples`
-    with that distance) keep their normals, the others get zero rows (f_edge's contact-offset nuisance)."""
+    with that distance) keep their normals, the others get zero rows (f_edge's contact-offset nuisance).
+    ``junction_px`` > 0: no contour samples that close to where their object borders a nearer one
+    (T-junctions, :func:`ycbvss.refine.edge.junction_mask`)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
-                                        contact_mm=contact_mm)
+                                        contact_mm=contact_mm, junction_px=junction_px)
     if blur_sigma_px is not None:
         geo = uv_c
         uv_c = match_contour_to_blur(uv_c, l_c, vr.instance, blur_sigma_px)
