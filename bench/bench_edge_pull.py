@@ -13,7 +13,8 @@ cost). The samples are split into
   object's edge against a neighbour behind it),
 - contour samples with another object 2-4 px outside (a narrow gap: the neighbour's edge lies
   within the blur),
-- the other contour samples,
+- the other contour samples, split by whether their pixel lies within 3 px of where a nearer
+  object cuts the silhouette (a T-junction, :func:`ycbvss.refine.edge.junction_mask`),
 - interior samples,
 
 written as Markdown / CSV / LaTeX (``edge_pull.*``) and as a PNG per frame (``edge_pull_<frame>.png``:
@@ -30,12 +31,17 @@ from pathlib import Path
 
 import numpy as np
 
-CLASSES = ("contour, touching another object", "contour, another object 2-4 px out", "contour, free", "interior")
+CLASSES = ("contour, touching another object", "contour, another object 2-4 px out", "contour, free",
+           "contour, free, within 3 px of a T-junction", "interior")
+JUNCTION_PX = 3.0
 
 
-def sample_classes(instance: np.ndarray, uv: np.ndarray, normals: np.ndarray, label: int) -> np.ndarray:
-    """(N,) class index (0-2 of :data:`CLASSES`) of contour samples uv (N, 2) with outward unit
-    normals (N, 2): what the instance image holds 1 px and 2-4 px outside along the normal."""
+def sample_classes(instance: np.ndarray, uv: np.ndarray, normals: np.ndarray, label: int,
+                   junction: np.ndarray | None = None) -> np.ndarray:
+    """(N,) class index (0-3 of :data:`CLASSES`) of contour samples uv (N, 2) with outward unit
+    normals (N, 2): what the instance image holds 1 px and 2-4 px outside along the normal; with
+    ``junction`` (H, W) bool (:func:`ycbvss.refine.edge.junction_mask`), the free samples whose
+    pixel lies in it are class 3."""
     H, W = instance.shape
     out = np.full(len(uv), 2)
     near = np.zeros(len(uv), bool)
@@ -47,6 +53,9 @@ def sample_classes(instance: np.ndarray, uv: np.ndarray, normals: np.ndarray, la
             touch = other
         else:
             near |= other
+    if junction is not None:
+        p = np.clip(np.floor(uv - 0.5 * normals + 0.5).astype(int), 0, [W - 1, H - 1])   # the contour pixel
+        out[junction[p[:, 1], p[:, 0]]] = 3
     out[near & ~touch] = 1
     out[touch] = 0
     return out
@@ -78,7 +87,7 @@ def main() -> None:
     from ycbvss.geometry.se3 import inv_T
     from ycbvss.io.images import write_png
     from ycbvss.pipeline.suite import load_clip
-    from ycbvss.refine.edge import edge_field
+    from ycbvss.refine.edge import edge_field, junction_mask
     from ycbvss.refine.jacobians import backproject_px
     from ycbvss.refine.templates import ensure_meshes, get_renderer, render_view, view_edge_candidates
 
@@ -118,13 +127,21 @@ def main() -> None:
         T = poses[j]
         Pi = inv_T(T)
         fld = edge_field(img, 1.0, colour=True)
+        # the object's pixels within JUNCTION_PX of where a nearer object cuts its silhouette
+        inst_o = vr.instance == lab
+        cut = np.zeros_like(inst_o)
+        pi, pd = np.pad(vr.instance, 1), np.pad(vr.depth_mm, 1)
+        for dv, du in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+            ni, nd = pi[1 + dv:1 + dv + H, 1 + du:1 + du + W], pd[1 + dv:1 + dv + H, 1 + du:1 + du + W]
+            cut |= inst_o & (ni > 0) & (ni != lab) & (nd < vr.depth_mm)
+        junction = junction_mask(vr.instance, cut, JUNCTION_PX)
         per_class, dots = np.zeros(len(CLASSES)), []
         counts = np.zeros(len(CLASSES), int)
         for interior, uv, dep, lbl in ((False, c.uv_c, c.d_c, c.l_c), (True, c.uv_i, c.d_i, c.l_i)):
             m = (lbl == lab) & (dep > 0)
             X = backproject_px(K, uv[m], dep[m]) @ Pi[:3, :3].T + Pi[:3, 3]
             pull = rotation_pull(K, T, X, centre, axis, fld)
-            cls = np.full(m.sum(), 3) if interior else sample_classes(vr.instance, uv[m], c.n_c[m], lab)
+            cls = np.full(m.sum(), 4) if interior else sample_classes(vr.instance, uv[m], c.n_c[m], lab, junction)
             for k in range(len(CLASSES)):
                 per_class[k] += pull[cls == k].sum()
                 counts[k] += int((cls == k).sum())
