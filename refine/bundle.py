@@ -148,9 +148,18 @@ class RefineOptions:
     # clips with touching objects too (long-1 from the GT 0.380 -> 0.352 mm): the tables of record
     # would all have to be re-measured
     edge_contact_mm: float = 0.0
-    # > 0: no contour samples within this many px (640-px-wide images; scaled with the width) of
-    # where their object borders a nearer one (T-junctions, refine.edge.junction_mask)
-    edge_junction_px: float = 0.0
+    # > 0: no f_edge contour samples within this many px (640-px-wide images; scaled with the width)
+    # of where their object borders a nearer one (T-junctions, refine.edge.junction_mask): there the
+    # image's edge field mixes the occluder's edge with the object's own. 3 px is the reach of the
+    # finest edge field (Gaussian sigma 1 px: 2 sigma, plus the 3x3 Sobel's 1 px); not tuned. Found on
+    # suite short-1's large clamp (24 % visible behind the master chef can), whose free contour
+    # samples within 3 px of the cut carried 2.9 of its 3.9 /deg pull at the exact GT: from the GT
+    # 4.32 deg / 10.3 mm -> 0.32 deg / 0.2 mm. On by default since session 52
+    # (bench/results/ycbv21/README.md): short clips 1-9, paper init, seeds 0-9, mean over objects
+    # tx/ty/tz/R/PRJ 0.326/0.246/1.226/0.677/0.412 -> 0.172/0.177/1.021/0.495/0.242, poses with ADD
+    # > 10 mm 120 -> 40 (none `converged` either way); long clips 1-2 seed 0 within 0.01 mm / 0.012
+    # deg (long-1 R 0.169 -> 0.157 deg). 0: off
+    edge_junction_px: float = 3.0
     # > 0: instead of being dropped, the contour samples on contact lines (another object's surface
     # less than ``contact_offset_mm`` behind the silhouette: an object resting on another) share one
     # outward offset per (view, object) that is marginalised out of f_edge at the finest level (the

@@ -151,3 +151,11 @@ def test_cli_refine_no_table_contact_is_parsed_to_the_option():
     assert p.parse_args(base + ["--no-table-contact"]).table_contact is False
     assert p.parse_args(base).table_contact is None          # None: RefineOptions' default (held)
     assert p.parse_args(base + ["--table-contact", "narrow,medium"]).table_contact == "narrow,medium"
+
+
+def test_cli_refine_bad_edge_junction_px_is_one_line_error(bop_root, tmp_path, capsys):
+    root, _, _ = bop_root
+    rc = main(["refine", "--dataset", str(root), "--split", "test", "--init", str(root / "init.csv"),
+               "--out", str(tmp_path / "o"), "--edge-junction-px", "-2"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc != 0 and len(err) == 1 and "edge_junction_px" in err[0] and "scene 1" in err[0], err

@@ -47,6 +47,10 @@ def register(sub) -> None:
                         "less than this far (mm) behind the silhouette; for objects standing on others, whose "
                         "contact shadow's edge pulls them (default 0: off; 10 with --contact-weight 1 is what "
                         "bench/results/ycbv21/README.md measures)")
+    p.add_argument("--edge-junction-px", type=float, default=None,
+                   help="skip the edge term's contour samples within this many px (640-px-wide images) of where "
+                        "their object's silhouette is cut by a nearer object (T-junctions, whose mixed edges pull "
+                        "a partly hidden object; default 3, 0: off)")
     p.add_argument("--contact-weight", type=float, default=None,
                    help="weight of the non-penetration term (per mm^2 of depth inside another object, per point "
                         "and view; default 0: off)")
@@ -111,7 +115,7 @@ def _run(args: argparse.Namespace) -> int:
     ds = load_dataset(args.dataset, args.split, models_subdir=args.models_subdir, scene_ids=scenes)
     opt = RefineOptions(use_edge=not args.no_edge, use_point=not args.no_point, use_temporal=not args.no_temporal,
                         keyframe_step=args.keyframe_step, fix_cameras=args.known_cameras)
-    for k in ("alpha", "beta", "max_iters", "edge_contact_mm", "contact_weight", "table_span_deg"):
+    for k in ("alpha", "beta", "max_iters", "edge_contact_mm", "edge_junction_px", "contact_weight", "table_span_deg"):
         if getattr(args, k) is not None:
             setattr(opt, k, getattr(args, k))
     if args.table_flow is not None:
