@@ -33,7 +33,6 @@ import numpy as np
 
 CLASSES = ("contour, touching another object", "contour, another object 2-4 px out", "contour, free",
            "contour, free, within 3 px of a T-junction", "interior")
-JUNCTION_PX = 3.0
 
 
 def sample_classes(instance: np.ndarray, uv: np.ndarray, normals: np.ndarray, label: int,
@@ -87,7 +86,8 @@ def main() -> None:
     from ycbvss.geometry.se3 import inv_T
     from ycbvss.io.images import write_png
     from ycbvss.pipeline.suite import load_clip
-    from ycbvss.refine.edge import edge_field, junction_mask
+    from ycbvss.refine.bundle import RefineOptions
+    from ycbvss.refine.edge import edge_field, junction_mask, occluded_pixels
     from ycbvss.refine.jacobians import backproject_px
     from ycbvss.refine.templates import ensure_meshes, get_renderer, render_view, view_edge_candidates
 
@@ -127,14 +127,9 @@ def main() -> None:
         T = poses[j]
         Pi = inv_T(T)
         fld = edge_field(img, 1.0, colour=True)
-        # the object's pixels within JUNCTION_PX of where a nearer object cuts its silhouette
-        inst_o = vr.instance == lab
-        cut = np.zeros_like(inst_o)
-        pi, pd = np.pad(vr.instance, 1), np.pad(vr.depth_mm, 1)
-        for dv, du in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-            ni, nd = pi[1 + dv:1 + dv + H, 1 + du:1 + du + W], pd[1 + dv:1 + dv + H, 1 + du:1 + du + W]
-            cut |= inst_o & (ni > 0) & (ni != lab) & (nd < vr.depth_mm)
-        junction = junction_mask(vr.instance, cut, JUNCTION_PX)
+        # the object's pixels within the refiner's junction radius of where a nearer object cuts its silhouette
+        junction = junction_mask(vr.instance, occluded_pixels(vr.instance, vr.depth_mm) & (vr.instance == lab),
+                                 RefineOptions().edge_junction_px * W / 640.0)
         per_class, dots = np.zeros(len(CLASSES)), []
         counts = np.zeros(len(CLASSES), int)
         for interior, uv, dep, lbl in ((False, c.uv_c, c.d_c, c.l_c), (True, c.uv_i, c.d_i, c.l_i)):
