@@ -37,7 +37,7 @@ ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant",
               "tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "dx_mm", "dy_mm", "dz_mm", "init_add_mm", "init_prj_px",
               "sigma_tx_mm", "sigma_ty_mm", "sigma_tz_mm", "sigma_r_deg", "status", "confidence", "contour_px",
               "time_s", "n_frames", "contour_worst_px", "reason", "rx_obj_deg", "ry_obj_deg", "rz_obj_deg",
-              "interior_ncc", "turn_gain_ncc", "ridge_fallback", "slide_restart")
+              "interior_ncc", "turn_gain_ncc", "ridge_fallback", "slide_restart", "texture_share")
 VARIANTS = {"using all": {}, "w/o f_edge": {"use_edge": False}, "w/o f_point": {"use_point": False},
             "w/o f_t": {"use_temporal": False}}
 
@@ -160,6 +160,8 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 # the refined pose's interior texture fit and its best turned copy's gain (refine.turn_check)
                 "interior_ncc": float(res.quality.get(oid, {}).get("interior_ncc", float("nan"))),
                 "turn_gain_ncc": float(res.quality.get(oid, {}).get("turn_gain_ncc", float("nan"))),
+                # the share of the template's interior pixels with texture (refine.turn_check.texture_share)
+                "texture_share": float(res.quality.get(oid, {}).get("texture_share", float("nan"))),
                 # 1: the object drifted at the finest level's cap and the level ran again (RefineOptions.ridge_fallback),
                 # in the returned pass or in the first pass before a kept slide restart
                 "ridge_fallback": int(oid in fell_back),
