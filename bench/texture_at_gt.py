@@ -61,7 +61,7 @@ def main() -> None:
                 others = [(mesh_key(k, models[k]), Tk) for k, Tk in P.items() if k != o]
                 occ = r.render(Kc, x1 - x0, y1 - y0, others, outputs=("depth", "color")) if others else None
                 out = r.render(Kc, x1 - x0, y1 - y0, [(mesh_key(o, models[o]), T)], outputs=("depth", "color"))
-                ncc, _ = _turn_ncc(img[y0:y1, x0:x1], mag[y0:y1, x0:x1], out.depth_mm, out.color,
+                ncc, _, _ = _turn_ncc(img[y0:y1, x0:x1], mag[y0:y1, x0:x1], out.depth_mm, out.color,
                                    None if occ is None else occ.depth_mm, None if occ is None else occ.color)
                 # the template's own edge strength over the same eroded visible mask
                 obj = out.depth_mm > 0

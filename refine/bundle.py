@@ -38,7 +38,8 @@ from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homogr
                     table_rotation, whitening)
 from .table_contact import TableContactTerm, mean_normal, normal_sigma_deg
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
-from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, turned_wrong
+from .turn_check import (best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, turned_wrong,
+                         views_ncc)
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, contour_offset_px, shift_limit_px, sigma_add_mm,
                          sigma_floor, sigma_scale, worst_views_px)
 from .uncertainty import pose_sigmas
@@ -1785,7 +1786,8 @@ def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, 
 class _TurnFit(NamedTuple):
     """An object's turned-copy check (:mod:`ycbvss.refine.turn_check`): the best turn's mean gain
     (NCC) over the refined pose, its label and model-frame transform (None when no turn was
-    measured), the refined pose's own mean interior NCC and the best turned copy's."""
+    measured), the refined pose's own interior NCC (mean over views weighted by their interior
+    pixels) and the best turned copy's (mean over views)."""
 
     gain: float
     label: str
@@ -1850,7 +1852,7 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
             base[j].append(fit(P[j], texture=True))
             for lab, A in turns[j]:
                 alt[j][lab].append(fit(P[j] @ A))
-    base_res = {j: np.asarray([f.result() for f in fs], float).reshape(-1, 2) for j, fs in base.items()}  # (NCC, texture) per view
+    base_res = {j: np.asarray([f.result() for f in fs], float).reshape(-1, 3) for j, fs in base.items()}  # (NCC, texture, px) per view
     alt = {j: {lab: [f.result()[0] for f in fs] for lab, fs in d.items()} for j, d in alt.items()}
     imgs.keep([])
 
@@ -1859,21 +1861,21 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
 
     out = {}
     for j in turns:
-        b, t = base_res[j][:, 0], base_res[j][:, 1]
+        b, t, n_px = base_res[j][:, 0], base_res[j][:, 1], base_res[j][:, 2]
         gain, lab, fit = best_turn(b, alt[j])
-        out[obj_ids[j]] = _TurnFit(gain, lab, dict(turns[j]).get(lab), finite_mean(b), fit, finite_mean(t))
+        out[obj_ids[j]] = _TurnFit(gain, lab, dict(turns[j]).get(lab), views_ncc(b, n_px), fit, finite_mean(t))
     return out
 
 
 def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: np.ndarray,
               occ_depth_mm: np.ndarray | None, occ_color: np.ndarray | None,
-              texture: bool = False) -> tuple[float, float]:
+              texture: bool = False) -> tuple[float, float, int]:
     """Interior NCC of gradient magnitudes between the image window ``crop`` (its gradient
     magnitude ``mag_c``) and the window with the rendered objects pasted in: the object under
     test (``depth_mm``, 0 = background, and template ``color``) in front of the other objects
     (``occ_depth_mm``, ``occ_color``; None: none) where it is nearer; the NCC is taken over the
     object's visible pixels. Returns (NCC, the template's texture share there with ``texture``,
-    :func:`ycbvss.refine.turn_check.texture_share`, else NaN)."""
+    :func:`ycbvss.refine.turn_check.texture_share`, else NaN; the number of interior pixels)."""
     obj = depth_mm > 0
     tmpl = crop.copy()
     if occ_depth_mm is not None:
@@ -1884,7 +1886,7 @@ def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: 
     tm = gradient_magnitude(tmpl, 1.0)
     inner = interior_mask(obj)          # eroded once for both measures
     return (interior_ncc(mag_c, tm, inner, erode_px=0),
-            texture_share(tm, inner, erode_px=0) if texture else float("nan"))
+            texture_share(tm, inner, erode_px=0) if texture else float("nan"), int(inner.sum()))
 
 
 def _sphere_window(view, T: np.ndarray, centre_mm: np.ndarray, radius_mm: float, margin_px: int = 8,

@@ -9,7 +9,7 @@ from ycbvss.geometry.symmetry import symmetry_group
 from ycbvss.refine.confidence import classify
 from ycbvss.refine.turn_check import (FIT_MIN, GAIN_MIN, NCC_TEXTURED_MIN, TEXTURE_MAG, TEXTURED_MIN, TURNS_DEG,
                                       best_turn, interior_mask, interior_ncc, texture_mismatch, texture_share,
-                                      turn_transforms, turned_wrong)
+                                      turn_transforms, turned_wrong, views_ncc)
 
 
 def test_turns_cover_three_axes_and_skip_only_equivalent_ones():
@@ -99,3 +99,12 @@ def test_a_textured_object_that_fits_its_texture_badly_is_uncertain():
     assert classify(0.39, 1.4, 0.0, True, interior_ncc=float("nan"), texture=0.35).status == "converged"
     assert texture_mismatch(NCC_TEXTURED_MIN - 0.01, TEXTURED_MIN)
     assert not texture_mismatch(NCC_TEXTURED_MIN, 0.9) and not texture_mismatch(0.0, TEXTURED_MIN - 0.01)
+
+
+def test_views_ncc_weights_each_view_by_what_it_shows():
+    # like medium-1's large clamp (session 53): a 554-px view at -0.42 (24 % visible) beside two larger views
+    fit = views_ncc(np.array([-0.42, 0.74, 0.70]), np.array([554, 3789, 6600]))
+    assert abs(fit - (-0.42 * 554 + 0.74 * 3789 + 0.70 * 6600) / (554 + 3789 + 6600)) < 1e-12
+    assert fit > NCC_TEXTURED_MIN > float(np.mean([-0.42, 0.1, 0.1]))
+    assert abs(views_ncc(np.array([0.3, 0.9]), np.array([100, 100])) - 0.6) < 1e-12   # equal views: the plain mean
+    assert np.isnan(views_ncc(np.array([np.nan, 0.5]), np.array([100, 0])))           # no view with a fit and pixels
