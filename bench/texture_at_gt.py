@@ -1,6 +1,7 @@
 """The interior-texture check's pictures at the exact ground truth: for every object of the ycbv21
 suite's scenes (first and middle frame), the interior NCC of the image's edge strength against the
-refiner's unlit template (``refine.bundle._turn_ncc``, the others in place as occluders) and the
+refiner's unlit template (``refine.bundle._template_magnitude``, the others in place as occluders,
+as the status's check builds it) and the
 template's texture share above several edge strengths (``refine.turn_check.texture_share``).
 
     python bench/texture_at_gt.py --dataset ../shared/data/ycbv --suite-root /tmp/suite/full \
@@ -31,10 +32,10 @@ def main() -> None:
     from ycbvss.geometry.model_frame import bbox_center
     from ycbvss.io.bop import load_bop_scene
     from ycbvss.pipeline.suite import suite_models
-    from ycbvss.refine.bundle import _sphere_window, _turn_ncc
+    from ycbvss.refine.bundle import _sphere_window, _template_magnitude
     from ycbvss.refine.edge import gradient_magnitude
     from ycbvss.refine.templates import ensure_meshes, get_renderer, mesh_key
-    from ycbvss.refine.turn_check import texture_share
+    from ycbvss.refine.turn_check import interior_ncc, texture_share
 
     root = Path(a.suite_root)
     models = suite_models(a.dataset, root)
@@ -61,19 +62,12 @@ def main() -> None:
                 others = [(mesh_key(k, models[k]), Tk) for k, Tk in P.items() if k != o]
                 occ = r.render(Kc, x1 - x0, y1 - y0, others, outputs=("depth", "color")) if others else None
                 out = r.render(Kc, x1 - x0, y1 - y0, [(mesh_key(o, models[o]), T)], outputs=("depth", "color"))
-                ncc, _, _ = _turn_ncc(img[y0:y1, x0:x1], mag[y0:y1, x0:x1], out.depth_mm, out.color,
-                                   None if occ is None else occ.depth_mm, None if occ is None else occ.color)
-                # the template's own edge strength over the same eroded visible mask
-                obj = out.depth_mm > 0
-                if occ is not None:
-                    obj &= (occ.depth_mm <= 0) | (out.depth_mm < occ.depth_mm)
-                tmpl = img[y0:y1, x0:x1].copy()
-                if occ is not None:
-                    np.copyto(tmpl, occ.color, where=((occ.depth_mm > 0) & ~obj)[..., None])
-                np.copyto(tmpl, out.color, where=obj[..., None])
-                tm = gradient_magnitude(tmpl, 1.0)
+                tm, inner = _template_magnitude(img[y0:y1, x0:x1], out.depth_mm, out.color,
+                                                None if occ is None else occ.depth_mm,
+                                                None if occ is None else occ.color)
+                ncc = interior_ncc(mag[y0:y1, x0:x1], tm, inner, erode_px=0)
                 row = {"scene_id": sid, "im_id": f.im_id, "obj_id": o, "ncc_at_gt": round(ncc, 4)}
-                row.update({f"share_above_{m:g}": round(texture_share(tm, obj, mag_min=m), 4) for m in MAGS})
+                row.update({f"share_above_{m:g}": round(texture_share(tm, inner, erode_px=0, mag_min=m), 4) for m in MAGS})
                 rows.append(row)
                 print(row, flush=True)
     out_path = Path(a.out)

@@ -1871,11 +1871,20 @@ def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: 
               occ_depth_mm: np.ndarray | None, occ_color: np.ndarray | None,
               texture: bool = False) -> tuple[float, float, int]:
     """Interior NCC of gradient magnitudes between the image window ``crop`` (its gradient
-    magnitude ``mag_c``) and the window with the rendered objects pasted in: the object under
-    test (``depth_mm``, 0 = background, and template ``color``) in front of the other objects
-    (``occ_depth_mm``, ``occ_color``; None: none) where it is nearer; the NCC is taken over the
-    object's visible pixels. Returns (NCC, the template's texture share there with ``texture``,
+    magnitude ``mag_c``) and the template picture of :func:`_template_magnitude`, over the object's
+    visible pixels. Returns (NCC, the template's texture share there with ``texture``,
     :func:`ycbvss.refine.turn_check.texture_share`, else NaN; the number of interior pixels)."""
+    tm, inner = _template_magnitude(crop, depth_mm, color, occ_depth_mm, occ_color)
+    return (interior_ncc(mag_c, tm, inner, erode_px=0),
+            texture_share(tm, inner, erode_px=0) if texture else float("nan"), int(inner.sum()))
+
+
+def _template_magnitude(crop: np.ndarray, depth_mm: np.ndarray, color: np.ndarray,
+                        occ_depth_mm: np.ndarray | None, occ_color: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The image window ``crop`` with the rendered objects pasted in -- the object under test
+    (``depth_mm``, 0 = background, and template ``color``) in front of the other objects
+    (``occ_depth_mm``, ``occ_color``; None: none) where it is nearer -- as (its gradient magnitude
+    (H, W), the object's visible pixels eroded by the interior margin (H, W) bool)."""
     obj = depth_mm > 0
     tmpl = crop.copy()
     if occ_depth_mm is not None:
@@ -1883,10 +1892,7 @@ def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: 
         obj &= ~occ | (depth_mm < occ_depth_mm)
         np.copyto(tmpl, occ_color, where=(occ & ~obj)[..., None])
     np.copyto(tmpl, color, where=obj[..., None])
-    tm = gradient_magnitude(tmpl, 1.0)
-    inner = interior_mask(obj)          # eroded once for both measures
-    return (interior_ncc(mag_c, tm, inner, erode_px=0),
-            texture_share(tm, inner, erode_px=0) if texture else float("nan"), int(inner.sum()))
+    return gradient_magnitude(tmpl, 1.0), interior_mask(obj)     # eroded once for every measure
 
 
 def _sphere_window(view, T: np.ndarray, centre_mm: np.ndarray, radius_mm: float, margin_px: int = 8,

@@ -49,10 +49,10 @@ FIT_MIN = 0.3
 # surface has none, so its NCC (noise: a plain procedural cylinder at its exact pose 0.00) is never
 # judged. Session 53: with the former edge-only threshold (8) the foam brick (share 0.00-0.03) was
 # never judged and medium-4's stacked brick ended 4.9 deg off reported `converged` with NCC 0.16.
-# At the exact GT (scenes 1-9, frames 0 and middle: 126 object views with >= 200 interior pixels)
-# every YCB-V object has share >= 0.136 above 2 (foam brick 0.136-0.255, clamps 0.34-0.51) and
-# interior NCC >= 0.35, but for the large clamp 24 % visible in medium-1's first frame (-0.42 over
-# 554 px): bench/results/ycbv21/README.md, session 53.
+# At the exact GT (scenes 1-9, frames 0 and middle: 122 object views with >= 200 interior pixels;
+# bench/texture_at_gt.py) every YCB-V object has share >= 0.137 above 2 (foam brick 0.137-0.255,
+# clamps 0.34-0.51) and interior NCC >= 0.35, but for the large clamp 24 % visible in scene 1's
+# first frame (-0.42 over 554 px): bench/results/ycbv21/README.md, session 53.
 NCC_TEXTURED_MIN = 0.25
 TEXTURE_MAG = 2.0
 TEXTURED_MIN = 0.1

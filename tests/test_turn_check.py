@@ -102,9 +102,11 @@ def test_a_textured_object_that_fits_its_texture_badly_is_uncertain():
 
 
 def test_views_ncc_weights_each_view_by_what_it_shows():
-    # like medium-1's large clamp (session 53): a 554-px view at -0.42 (24 % visible) beside two larger views
-    fit = views_ncc(np.array([-0.42, 0.74, 0.70]), np.array([554, 3789, 6600]))
-    assert abs(fit - (-0.42 * 554 + 0.74 * 3789 + 0.70 * 6600) / (554 + 3789 + 6600)) < 1e-12
-    assert fit > NCC_TEXTURED_MIN > float(np.mean([-0.42, 0.1, 0.1]))
+    # like medium-1's large clamp (session 53): a 554-px view at -0.42 (24 % visible) beside two larger
+    # views; the plain mean (0.10) falls below the bound, the weighted fit (0.29) does not
+    ncc, n_px = np.array([-0.42, 0.30, 0.42]), np.array([554, 3000, 3000])
+    fit = views_ncc(ncc, n_px)
+    assert abs(fit - float(ncc @ n_px) / n_px.sum()) < 1e-12
+    assert fit > NCC_TEXTURED_MIN > float(ncc.mean())
     assert abs(views_ncc(np.array([0.3, 0.9]), np.array([100, 100])) - 0.6) < 1e-12   # equal views: the plain mean
     assert np.isnan(views_ncc(np.array([np.nan, 0.5]), np.array([100, 0])))           # no view with a fit and pixels
