@@ -25,10 +25,17 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
+# numba's parallel kernels: OpenMP before TBB. Blender's bpy (the synthesis runs in-process) loads
+# its own libtbb, older than numba accepts; numba then probes it, warns ("The TBB threading layer
+# requires TBB version 2021 update 6 or later") and falls back. An explicit THREADING_LAYER set by
+# the user (NUMBA_THREADING_LAYER) is left alone.
+if numba.config.THREADING_LAYER == "default":
+    numba.config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]
 
 
 @njit(cache=True, inline="always")

@@ -2,6 +2,8 @@
 Budget: < 10 s (numba kernels load from the on-disk cache; ~10 s more on a first compile)."""
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 import pytest
 
@@ -183,3 +185,22 @@ def test_numba_and_scipy_backends_agree_with_prj():
     for k in a:
         assert np.max(np.abs(a[k] - b[k])) < 1e-9, k
     assert np.max(np.abs(a["prj_px"] - prj_np)) < 1e-9
+
+
+@pytest.mark.skipif(importlib.util.find_spec("bpy") is None, reason="needs Blender (bpy)")
+def test_numba_kernels_use_openmp_beside_blender():
+    """bpy (in-process synthesis) loads its own, older libtbb; numba's default layer order would take
+    it (measured: threading_layer() == "tbb" after `import bpy`, and `ycbvss validate` printed numba's
+    "TBB threading layer requires TBB version 2021 update 6" warning). The metrics put OpenMP first."""
+    import subprocess
+    import sys
+
+    code = ("import warnings; warnings.simplefilter('always'); import bpy, numba, numpy as np\n"
+            "from ycbvss.eval.metrics import prj_px\n"
+            "K = np.array([[600.0, 0, 320], [0, 600.0, 240], [0, 0, 1]]); R = np.stack([np.eye(3)] * 64)\n"
+            "t = np.tile([0.0, 0.0, 800.0], (64, 1)); prj_px(R, t, R, t + 1.0, K, np.ones((500, 3)))\n"
+            "print('LAYER', numba.threading_layer())")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "LAYER omp" in r.stdout or "LAYER workqueue" in r.stdout, r.stdout
+    assert "TBB" not in r.stderr, r.stderr[-2000:]
