@@ -32,7 +32,7 @@ SCORE_HEADERS = ("ADD(-S) AUC", "PRJ AUC", "ADD-PRJ-AUC", "SR")
 @dataclass
 class Row:
     label: str
-    values: list                           # floats or None
+    values: list                           # floats (ints: counts, printed without decimals) or None
     mark: bool = False                     # textureless: '*' after the label
     rule_before: bool = False              # horizontal rule above this row
     bold: list[bool] | None = None
@@ -59,6 +59,8 @@ def _get(d: dict, k: str):
 def _fmt(v, digits: int) -> str:
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return "-"
+    if isinstance(v, int) and not isinstance(v, bool):
+        return str(v)
     if math.isinf(v):
         return "inf"
     return f"{v:.{digits}f}"

@@ -125,6 +125,11 @@ def test_tables_render_paper_layouts():
     assert "| w/o f_t | **0.01** | **0.02** | **0.13** |" in to_markdown(tie)
     tie_rows = list(csv.reader(io.StringIO(to_csv(tie))))
     assert abs(float(tie_rows[2][3]) - 0.1314) < 1e-9 and abs(float(tie_rows[1][1]) - 0.0141) < 1e-9
+    # counts (ints) print without decimals in every format; floats keep the table's digits
+    from ycbvss.eval.tables import Row, Table
+    cnt = Table(columns=["poses", "share"], rows=[Row("long", [4153, 1.0])], digits=3)
+    assert "| long | 4153 | 1.000 |" in to_markdown(cnt) and r"long & 4153 & 1.000 \\" in to_latex(cnt)
+    assert list(csv.reader(io.StringIO(to_csv(cnt))))[1][:3] == ["long", "4153", "1"]
 
 
 def test_options_validation():

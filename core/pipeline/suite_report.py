@@ -54,18 +54,19 @@ def object_table(rows: list[dict], models: dict, kind: str, held_out_only: bool 
               latex_columns=[*ERROR_LATEX, "poses", "ADD init"],
               caption=(f"{kind} clips{' (held-out scenes/seeds only)' if held_out_only else ''}: mean errors "
                        f"from the paper's initial error; bold = misses the target "
-                       f"(tx,ty <= {tgt[0]} mm, tz <= {tgt[2]} mm, R <= {tgt[3]} deg, PRJ <= {tgt[4]} px)"))
+                       f"(tx,ty <= {tgt[0]} mm, tz <= {tgt[2]} mm, R <= {tgt[3]} deg, PRJ <= {tgt[4]} px); "
+                       f"* = textureless object (assets manifest)"))
     for o in sorted({r["obj_id"] for r in rs}):
         ro = [r for r in rs if r["obj_id"] == o]
         vals = [_mean(ro, c) for c in ERROR_COLS]
-        t.rows.append(Row(names.get(o, str(o)), vals + [float(len(ro)), _mean(ro, "init_add_mm")],
+        t.rows.append(Row(names.get(o, str(o)), vals + [len(ro), _mean(ro, "init_add_mm")],
                           mark=bool(models[o].textureless),
                           bold=[not (v <= g) for v, g in zip(vals, tgt)] + [False, False]))
     if rs:
         per_obj = np.array([[_mean([r for r in rs if r["obj_id"] == o], c) for c in ERROR_COLS]
                             for o in sorted({r["obj_id"] for r in rs})])
         allv = list(np.nanmean(per_obj, axis=0))
-        t.rows.append(Row("all (mean over objects)", allv + [float(len(rs)), _mean(rs, "init_add_mm")],
+        t.rows.append(Row("all (mean over objects)", allv + [len(rs), _mean(rs, "init_add_mm")],
                           rule_before=True, bold=[False] * 7))
         t.rows.append(Row("paper (Li et al.) all", list(PAPER_ALL) + [None, None], bold=[False] * 7))
     return t
@@ -77,13 +78,14 @@ def bias_table(rows: list[dict], models: dict, kind: str) -> Table:
     names = _names(models)
     t = Table(columns=["tx (mm)", "ty (mm)", "tz (mm)", "R (deg)", "max |t| (mm)", "poses"], label_header="object",
               caption=(f"{kind} clips, refinement started from the exact GT: mean error per object; "
-                       f"bold = above the bias bound (lateral 0.1 mm, depth 0.3 mm, R 0.05 deg)"),
+                       f"bold = above the bias bound (lateral 0.1 mm, depth 0.3 mm, R 0.05 deg); "
+                       f"* = textureless object (assets manifest)"),
               digits=3)
     for o in sorted({r["obj_id"] for r in rs}):
         ro = [r for r in rs if r["obj_id"] == o]
         vals = [_mean(ro, c) for c in ("tx_mm", "ty_mm", "tz_mm", "r_deg")]
         mx = float(max(max(r["tx_mm"], r["ty_mm"], r["tz_mm"]) for r in ro))
-        t.rows.append(Row(names.get(o, str(o)), vals + [mx, float(len(ro))], mark=bool(models[o].textureless),
+        t.rows.append(Row(names.get(o, str(o)), vals + [mx, len(ro)], mark=bool(models[o].textureless),
                           bold=[not (v <= g) for v, g in zip(vals, BIAS_TARGETS)] + [False, False]))
     return t
 
@@ -152,7 +154,7 @@ def coverage_table(rows: list[dict]) -> Table:
                 coverage(ho, calibrated=True), coverage(ho, calibrated=True, converged_only=True), coverage(rk)]
         for e, _ in SIGMA_AXES:
             vals = [c[e]["coverage"] for c in cols]
-            t.rows.append(Row(e if kind is None else f"{e} ({kind})", vals + [float(cols[-1][e]["n"])],
+            t.rows.append(Row(e if kind is None else f"{e} ({kind})", vals + [int(cols[-1][e]["n"])],
                               bold=[not (v >= 0.9) for v in vals[:4]] + [False, False]))
     return t
 
@@ -171,8 +173,8 @@ def status_table(rows: list[dict]) -> Table:
         bad = [r for r in rs if r["add_mm"] > 10]
         ok_bad = [r for r in bad if r["status"] != "converged" or _covered(r)]
         conv = [r for r in rs if r["status"] == "converged"]
-        t.rows.append(Row(kind, [float(c["converged"]), float(c["uncertain"]), float(c["failed"]),
-                                 c["converged"] / len(rs), float(len(bad)),
+        t.rows.append(Row(kind, [c["converged"], c["uncertain"], c["failed"],
+                                 c["converged"] / len(rs), len(bad),
                                  (len(ok_bad) / len(bad)) if bad else float("nan"),
                                  (sum(r["add_mm"] <= 2 for r in conv) / len(conv)) if conv else float("nan")]))
     return t
