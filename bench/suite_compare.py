@@ -46,7 +46,7 @@ def summarise(rows: list[dict]) -> list[float]:
     m = np.array([np.mean(v, axis=0) for v in per.values()])
     add = np.array([float(r["add_mm"]) for r in rows])
     conv = float(np.mean([r["status"] == "converged" for r in rows]))
-    return [float(x) for x in m.mean(axis=0)] + [float(np.mean(add < 2.0)), float(np.sum(add > 10.0)), conv, float(len(rows))]
+    return [float(x) for x in m.mean(axis=0)] + [float(np.mean(add < 2.0)), int(np.sum(add > 10.0)), conv, len(rows)]
 
 
 def main() -> None:

@@ -251,6 +251,10 @@ def table_rotation(xs: np.ndarray, xd: np.ndarray, K_k: np.ndarray, K_i: np.ndar
     best = min(range(len(Rs)), key=lambda j: score(Rs[j], ns[j]))
     R0, n0 = np.asarray(Rs[best], np.float64), np.asarray(ns[best], np.float64).ravel()
     t0 = np.asarray(ts[best], np.float64).ravel()
+    if not (np.all(np.isfinite(n0)) and np.linalg.norm(n0) > 0.5):
+        # no translation between the views: the homography is a pure rotation and OpenCV gives a zero
+        # normal; the plane's parallax that the refinement below fits is not there (it would run on NaNs)
+        return None
     B = _orthobasis(n0)
     a = np.c_[xs[inl], np.ones(int(inl.sum()))] @ np.linalg.inv(K_k).T
     b = xd[inl]

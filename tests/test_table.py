@@ -123,6 +123,26 @@ def test_table_rotation_measures_the_plane_normal():
     assert max(errs) < 0.05                                   # 0.05 px matches, ~25 deg apart: measured <= 0.016 deg
 
 
+def test_table_rotation_of_a_camera_that_only_turned_is_none_without_noise(capfd):
+    """A pure rotation (no translation, e.g. a tripod pan or the shared clips' nearly still camera): OpenCV's
+    decomposition gives a zero normal. Before: NaN residuals, a RuntimeWarning ("invalid value encountered
+    in divide", printed by CI in test_refine_synthetic.py's blur-schedule test) and LAPACK's "DLASCL
+    parameter number 4 had an illegal value" on stderr, then None."""
+    import warnings
+
+    from ycbvss.geometry.so3 import exp_so3
+    from ycbvss.refine.table import table_rotation
+    K = np.array([[600.0, 0, 320], [0, 600.0, 240], [0, 0, 1]])
+    xs = np.random.default_rng(0).uniform([50, 50], [590, 430], (300, 2))
+    R = exp_so3(np.radians([1.0, 2.0, 0.5]))
+    y = np.c_[xs, np.ones(len(xs))] @ (K @ R @ np.linalg.inv(K)).T
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert table_rotation(xs, y[:, :2] / y[:, 2:], K, K, R, with_normal=True) is None
+    out, err = capfd.readouterr()
+    assert "DLASCL" not in out + err
+
+
 def test_table_rotation_term_gradient_and_solve(fd_gradient):
     from ycbvss.geometry.se3 import exp_se3
     from ycbvss.geometry.so3 import exp_so3, log_so3
