@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
+import io
+import math
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -30,11 +31,12 @@ def main() -> None:
     ap.add_argument("--out", required=True, help="CSV written (atomically)")
     a = ap.parse_args()
     from ycbvss.geometry.model_frame import bbox_center
+    from ycbvss.io.atomic import write_text_atomic
     from ycbvss.io.bop import load_bop_scene
     from ycbvss.pipeline.suite import suite_models
     from ycbvss.refine.bundle import _sphere_window, _template_magnitude
     from ycbvss.refine.edge import gradient_magnitude
-    from ycbvss.refine.templates import ensure_meshes, get_renderer, mesh_key
+    from ycbvss.refine.templates import _subpixel_K, ensure_meshes, get_renderer, mesh_key
     from ycbvss.refine.turn_check import interior_ncc, texture_share
 
     root = Path(a.suite_root)
@@ -56,9 +58,7 @@ def main() -> None:
                 if box is None:
                     continue
                 y0, y1, x0, x1 = box
-                Kc = K.copy()
-                Kc[0, 2] -= x0
-                Kc[1, 2] -= y0
+                Kc = _subpixel_K(K, box, 1)        # the window's intrinsics, as the status's check
                 others = [(mesh_key(k, models[k]), Tk) for k, Tk in P.items() if k != o]
                 occ = r.render(Kc, x1 - x0, y1 - y0, others, outputs=("depth", "color")) if others else None
                 out = r.render(Kc, x1 - x0, y1 - y0, [(mesh_key(o, models[o]), T)], outputs=("depth", "color"))
@@ -70,15 +70,12 @@ def main() -> None:
                 row.update({f"share_above_{m:g}": round(texture_share(tm, inner, erode_px=0, mag_min=m), 4) for m in MAGS})
                 rows.append(row)
                 print(row, flush=True)
-    out_path = Path(a.out)
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out_path.with_suffix(out_path.suffix + ".tmp")
-    with open(tmp, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    os.replace(tmp, out_path)
-    judged = [r for r in rows if r["share_above_2"] == r["share_above_2"]]
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(rows[0]))
+    w.writeheader()
+    w.writerows(rows)
+    write_text_atomic(a.out, buf.getvalue())
+    judged = [r for r in rows if math.isfinite(r["share_above_2"])]
     print(f"{len(judged)} object views with an interior; min share above 2: "
           f"{min(r['share_above_2'] for r in judged):.3f}; NCC < 0.25 at the GT: "
           f"{[(r['scene_id'], r['im_id'], r['obj_id'], r['ncc_at_gt']) for r in judged if r['ncc_at_gt'] < 0.25]}")

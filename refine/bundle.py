@@ -32,8 +32,8 @@ from .problem import BundleProblem, View, model_moments
 from .solver import SolverOptions, covariance, run_lm
 from .shading import lit_template, view_lighting
 from .threads import single_threaded_kernels
-from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, mesh_key, object_mask,
-                        area_template, render_view, select_edge_samples, view_edge_candidates, with_area)
+from .templates import (EdgeCandidates, ViewRender, _subpixel_K, composite, ensure_meshes, get_renderer, mesh_key,
+                        object_mask, area_template, render_view, select_edge_samples, view_edge_candidates, with_area)
 from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
                     table_rotation, whitening)
 from .table_contact import TableContactTerm, mean_normal, normal_sigma_deg
@@ -1830,9 +1830,7 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
             if box is None:
                 continue
             y0, y1, x0, x1 = box
-            K = v.K.copy()
-            K[0, 2] -= x0
-            K[1, 2] -= y0
+            K = _subpixel_K(v.K, box, 1)      # the window's intrinsics
             others = [(mesh_key(obj_ids[k], models[obj_ids[k]]), T) for k, T in P.items() if k != j]
             key = mesh_key(obj_ids[j], models[obj_ids[j]])
             crop, mag_c = v.image[y0:y1, x0:x1], mag[y0:y1, x0:x1]
