@@ -60,3 +60,30 @@ def test_no_junction_without_a_nearer_neighbour():
     assert np.sum(b[2] == 1) == np.sum(a[2] == 1)
     # object 2 is now the occluded one: it loses samples near where object 1 cuts it
     assert np.sum(b[2] == 2) < np.sum(a[2] == 2)
+
+
+def test_junction_mask_matches_a_brute_force_distance_on_random_scenes():
+    # objects touching the image border and each other, several cut per frame: the mask (computed in
+    # each object's bounding box) equals the brute-force Euclidean distance to the object's own cut
+    # pixels over the whole frame
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        inst = np.zeros((48, 64), np.int32)
+        depth = np.zeros((48, 64), np.float32)
+        for lab in range(1, 5):
+            h, w = rng.integers(10, 30, size=2)
+            y0, x0 = rng.integers(-8, 30), rng.integers(-8, 40)   # some cross the border
+            ys, xs = slice(max(y0, 0), y0 + h), slice(max(x0, 0), x0 + w)
+            inst[ys, xs], depth[ys, xs] = lab, 1000.0 - 100.0 * lab   # later labels are nearer
+        from ycbvss.refine.edge import occluded_pixels
+        occ = occluded_pixels(inst, depth)
+        assert occ.any()
+        r = 2.5
+        m = junction_mask(inst, occ, r)
+        yy, xx = np.mgrid[:48, :64]
+        want = np.zeros_like(m)
+        for lab in np.unique(inst[occ]):
+            cy, cx = np.nonzero(occ & (inst == lab))
+            d = np.min(np.hypot(yy[..., None] - cy, xx[..., None] - cx), axis=-1)
+            want |= (d <= r) & (inst == lab)
+        assert np.array_equal(m, want)
