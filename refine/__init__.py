@@ -8,6 +8,7 @@ equations, after a CosyPose-style scene-consistent initialisation.
     from ycbvss.refine import RefineOptions, refine_scene, RefineResult
     res = refine_scene(scene, models, init, options=RefineOptions(), images=None)
 """
-from .bundle import RefineOptions, RefineResult, refine_scene
+from .bundle import refine_scene
+from .options import RefineOptions, RefineResult
 
 __all__ = ["RefineOptions", "RefineResult", "refine_scene"]

@@ -109,7 +109,8 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
     kw = dict(VARIANTS[run.variant])
     kw.update(opts_kw or {})
     step = kw.pop("keyframe_step", keyframe_step_for(len(sc.frames)))
-    ro = RefineOptions(keyframe_step=step, seed=run.seed, **kw)
+    # the refiner's sampling seed follows the initialisation seed unless the options give their own
+    ro = RefineOptions(**{"keyframe_step": step, "seed": run.seed, **kw})
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
