@@ -20,6 +20,7 @@ def main() -> None:
     from ycbvss.io.bop import load_bop_scene
     from ycbvss.pipeline.suite import build_suite, clip_scene, clips_of
     from ycbvss.refine import bundle as B
+    from ycbvss.refine import evidence as Ev
     from ycbvss.refine.confidence import OK_PX
     from ycbvss.refine.templates import ensure_meshes, get_renderer
     from ycbvss.progress import progress
@@ -48,8 +49,8 @@ def main() -> None:
         obj_ids = sorted({k[1] for k in gt})
         res = {}
         for lit in (False, True):
-            pv, ln = B._contour_offsets_all_views(views, models, obj_ids, np.ones(len(obj_ids), bool), gt, imgs, lit=lit)
-            worst = B._worst_views(pv, ln, obj_ids)
+            pv, ln = Ev._contour_offsets_all_views(views, models, obj_ids, np.ones(len(obj_ids), bool), gt, imgs, lit=lit)
+            worst = Ev._worst_views(pv, ln, obj_ids)
             for o in obj_ids:
                 seen = [pv[i][o] for i in pv if o in pv[i]]
                 if seen:

@@ -1,6 +1,6 @@
 """The interior-texture check's pictures at the exact ground truth: for every object of the ycbv21
 suite's scenes (first and middle frame), the interior NCC of the image's edge strength against the
-refiner's unlit template (``refine.bundle._template_magnitude``, the others in place as occluders,
+refiner's unlit template (``refine.evidence._template_magnitude``, the others in place as occluders,
 as the status's check builds it) and the
 template's texture share above several edge strengths (``refine.turn_check.texture_share``).
 
@@ -34,7 +34,7 @@ def main() -> None:
     from ycbvss.io.atomic import write_text_atomic
     from ycbvss.io.bop import load_bop_scene
     from ycbvss.pipeline.suite import suite_models
-    from ycbvss.refine.bundle import _sphere_window, _template_magnitude
+    from ycbvss.refine.evidence import _sphere_window, _template_magnitude
     from ycbvss.refine.edge import gradient_magnitude
     from ycbvss.refine.templates import _subpixel_K, ensure_meshes, get_renderer, mesh_key
     from ycbvss.refine.turn_check import interior_ncc, texture_share

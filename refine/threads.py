@@ -11,6 +11,8 @@ its sigmas within 2e-13 (the covariance's BLAS products sum in another order on 
 """
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Iterator
 
@@ -30,3 +32,14 @@ def single_threaded_kernels() -> Iterator[None]:
             yield
     finally:
         cv2.setNumThreads(n_cv)
+
+
+_VIEW_POOL: tuple[int, ThreadPoolExecutor] | None = None   # (owning pid, executor)
+
+
+def view_pool() -> ThreadPoolExecutor:
+    """Two worker threads per process for per-view image work (re-created in a forked child)."""
+    global _VIEW_POOL
+    if _VIEW_POOL is None or _VIEW_POOL[0] != os.getpid():
+        _VIEW_POOL = (os.getpid(), ThreadPoolExecutor(max_workers=2, thread_name_prefix="ycbvss-view"))
+    return _VIEW_POOL[1]

@@ -18,7 +18,7 @@ within 3 mm median ADD had all turns at least 0.07 NCC worse (median 0.51, 54 of
 the tuna cans reported ``converged`` 40 deg off about their axis from PRJ 20 px had a turn
 0.27-0.34 better.
 
-Pure functions here; the rendering loop is in :func:`ycbvss.refine.bundle._turn_gains`.
+Pure functions here; the rendering loop is in :func:`ycbvss.refine.evidence._turn_gains`.
 """
 from __future__ import annotations
 

@@ -3,7 +3,6 @@ brute-force search for tracker-level and gross errors, used only when many queri
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 
 

@@ -197,6 +197,7 @@ def test_a_camera_left_off_flags_every_pose_of_its_view(scene3):
     (long clip 1 from initial ADD 40 mm): frames 0 and 63 ended 5 deg off on all objects (ADD 12-32 mm),
     reported converged."""
     from ycbvss.refine import bundle as B
+    from ycbvss.refine import evidence as Ev
     from ycbvss.refine.problem import View
     from ycbvss.refine.templates import ensure_meshes, get_renderer
 
@@ -208,9 +209,9 @@ def test_a_camera_left_off_flags_every_pose_of_its_view(scene3):
     poses = {k: T.copy() for k, T in gt.items()}
     for o in obj_ids:
         poses[(frames[1].im_id, o)][:3, 3] += (4.0, 0.0, 0.0)
-    per_view = B._view_contour_offsets(views, ps.models, obj_ids, np.ones(len(obj_ids), bool), poses)
+    per_view = Ev._view_contour_offsets(views, ps.models, obj_ids, np.ones(len(obj_ids), bool), poses)
     view_px = np.array([np.median(list(per_view[i].values())) for i in range(len(views))])
-    quality = B._object_quality(per_view, ps.models, obj_ids)
+    quality = Ev._object_quality(per_view, ps.models, obj_ids)
     assert view_px[1] > 1.0 and view_px[0] < 0.8 and view_px[2] < 0.8, view_px
     n = len(views)
     vidx = {v.im_id: i for i, v in enumerate(views)}

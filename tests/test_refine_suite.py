@@ -183,6 +183,7 @@ def test_contour_check_reads_the_blender_images_at_the_exact_gt_and_off_it(suite
     1.9-3.0 px."""
     from ycbvss.pipeline.suite import clip_scene
     from ycbvss.refine import bundle as B
+    from ycbvss.refine import evidence as Ev
     from ycbvss.refine.confidence import OK_PX
     from ycbvss.refine.templates import ensure_meshes, get_renderer
 
@@ -194,8 +195,8 @@ def test_contour_check_reads_the_blender_images_at_the_exact_gt_and_off_it(suite
     ensure_meshes(get_renderer(), models)
 
     def worst(poses, lit):
-        pv, lengths = B._contour_offsets_all_views(views, models, obj_ids, np.ones(len(obj_ids), bool), poses, imgs, lit=lit)
-        return B._worst_views(pv, lengths, obj_ids)
+        pv, lengths = Ev._contour_offsets_all_views(views, models, obj_ids, np.ones(len(obj_ids), bool), poses, imgs, lit=lit)
+        return Ev._worst_views(pv, lengths, obj_ids)
 
     at_gt = worst(gt, lit=True)
     moved = {k: T.copy() for k, T in gt.items()}
