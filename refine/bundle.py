@@ -29,18 +29,18 @@ from .problem import BundleProblem, View, model_moments
 from .solver import SolverOptions, covariance, run_lm
 from .shading import lit_template, view_lighting
 from .threads import single_threaded_kernels, view_pool as _view_pool
-from .evidence import (_view_contour_offsets, _quality_on_views, _TurnFit, _turn_gains)
-from .templates import (EdgeCandidates, ViewRender, composite, ensure_meshes, get_renderer, object_mask, area_template, render_view, select_edge_samples, view_edge_candidates, with_area)
+from .evidence import _TurnFit, _quality_on_views, _turn_gains, _view_contour_offsets
+from .templates import (EdgeCandidates, ViewRender, area_template, composite, ensure_meshes, get_renderer, object_mask,
+                        render_view, select_edge_samples, view_edge_candidates, with_area)
 from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
                     table_rotation, whitening)
 from .table_contact import TableContactTerm, mean_normal, normal_sigma_deg
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
-from .turn_check import (turned_wrong)
+from .turn_check import turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, shift_limit_px, sigma_add_mm,
                          sigma_floor, sigma_scale)
 from .uncertainty import pose_sigmas
-from .options import (APPEARANCE_MAX_SIGMA_PX, BIAS_REMOVAL, DILATION_MAX_SIGMA_PX, RefineOptions,  # noqa: F401
-                      RefineResult)
+from .options import APPEARANCE_MAX_SIGMA_PX, BIAS_REMOVAL, DILATION_MAX_SIGMA_PX, RefineOptions, RefineResult
 
 
 def _valid_pose(T) -> bool:

@@ -465,7 +465,7 @@ def junction_mask(inst: np.ndarray, occluded: np.ndarray, radius_px: float) -> n
         return out
     # each object's own bounding box holds all of its occluded pixels, so the distances within it
     # are the full image's: the transform runs on the box only
-    boxes = ndimage.find_objects(np.where(np.isin(inst, labels), inst, 0).astype(np.int32))
+    boxes = ndimage.find_objects(inst)
     for lab in labels:
         box = boxes[int(lab) - 1]
         own = inst[box] == lab

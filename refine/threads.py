@@ -1,6 +1,6 @@
-"""One thread per numerical kernel while the refiner runs its own threads.
+"""The refiner's view thread pool, and one thread per numerical kernel while it runs.
 
-The refiner parallelises over views (a pool of two threads beside the OpenGL thread, plus a flow
+The refiner parallelises over views (:func:`view_pool`, two threads beside the OpenGL thread, plus a flow
 thread, see :mod:`ycbvss.refine.bundle` and :mod:`ycbvss.refine.matching`). OpenBLAS and OpenCV
 each start their own worker threads per call on top of that: on 2 cores, BLAS products of a few
 thousand rows and small OpenCV filters then pay for thread start-up and for OpenBLAS's spinning
