@@ -406,6 +406,68 @@ def test_slide_restart_goes_on_from_finer_levels(monkeypatch):
     assert calls == [(8.0, 4.0, 2.0, 1.0)] and "slide_restart" not in res.stats
 
 
+def test_objects_still_sliding_after_the_restarts_are_left_out_of_a_last_pass(monkeypatch):
+    """_isolate_slid's bookkeeping (the passes faked): an object that still slid after every slide
+    restart is left out and the scene refined once more; the others take that pass's poses and
+    statuses, the left-out object keeps the first pass's pose, uncertain, confidence halved, the
+    reason named. The last pass is not kept when fewer of the others converge in it."""
+    from types import SimpleNamespace
+
+    import ycbvss.refine.bundle as B
+    from ycbvss.refine.options import RefineResult
+
+    def shifted(dz):
+        T = np.eye(4)
+        T[2, 3] = 800.0 + dz
+        return T
+
+    def run(second_status, opt=None):
+        calls = []
+
+        def once(scene, models, init, opt, images):
+            lv = tuple(opt.edge_sigmas_px or (8.0, 4.0, 2.0, 1.0))
+            objs = sorted({k[1] for k in init})
+            calls.append((lv, objs))
+            full = 20 in objs
+            dz = {3: -1.5, 6: -1.2, 20: -4.0} if full else {3: 0.2, 6: 0.5}
+            poses = {(0, o): shifted(dz[o]) for o in objs}
+            status = ({(0, 3): "converged", (0, 6): "uncertain", (0, 20): "uncertain"} if full
+                      else {(0, 3): second_status, (0, 6): second_status})
+            res = RefineResult(poses=poses, T_w2c={0: np.eye(4)}, T_m2w={o: poses[(0, o)] for o in objs},
+                               init_poses=dict(init), sigma={"poses": {k: {"sigma_t_mm": np.ones(3)} for k in poses},
+                                                             "objects": {}}, log=[{"stage": f"pass {lv} {objs}"}],
+                               converged=True, visible=set(poses), status=status,
+                               confidence={k: 0.8 for k in poses}, reasons={k: "" for k in poses},
+                               quality={o: {"contour_px": 0.1} for o in objs},
+                               stats={"edge_sigmas_px": list(lv), "total_s": 1.0, "baseline_group": "medium",
+                                      "slid": [20] if full else [], "ridge_fallback": [[20]] if full and len(lv) == 4 else []})
+            return res, {o: f"turn {o} {'full' if full else 'without'}" for o in objs}
+
+        monkeypatch.setattr(B, "_refine_scene_once", once)
+        monkeypatch.setattr(B, "_slid_objects", lambda res, width: res.stats["slid"])
+        init = {(0, o): shifted(10.0) for o in (3, 6, 20)}
+        return B._refine_scene_pass(SimpleNamespace(frames=[]), {}, init, opt or B.RefineOptions(), None), calls
+
+    (res, turns), calls = run("converged")
+    assert [c[1] for c in calls] == [[3, 6, 20]] * 3 + [[3, 6]]     # the pass, two restarts, the last pass
+    assert res.poses[(0, 3)][2, 3] == 800.2 and res.poses[(0, 6)][2, 3] == 800.5
+    assert res.poses[(0, 20)][2, 3] == 796.0 and res.status[(0, 20)] == "uncertain"
+    assert res.confidence[(0, 20)] == pytest.approx(0.4) and "left out of the scene's final solution" in res.reasons[(0, 20)]
+    assert res.status[(0, 6)] == "converged" and 20 not in res.missing_objects and 20 in res.T_m2w
+    assert res.stats["isolate_slid"] == {"objects": [20], "kept": True, "converged_before": 1, "converged_after": 2,
+                                         "total_s": 1.0}
+    assert res.stats["total_s"] == 4.0 and res.stats["ridge_fallback"] == [[20]]
+    assert turns[20] == "turn 20 full" and turns[3] == "turn 3 without"
+    assert [e["stage"] for e in res.log].count("isolate slid") == 1
+
+    (res, turns), calls = run("uncertain")       # one of the others converged before, none after
+    assert len(calls) == 4 and res.poses[(0, 3)][2, 3] == 798.5 and not res.stats["isolate_slid"]["kept"]
+    assert res.log[-1]["stage"] == "isolate slid" and res.log[-1]["message"].endswith("fewer of the other objects converged)")
+
+    (res, _), calls = run("converged", B.RefineOptions(isolate_slid=False))     # off: no last pass
+    assert len(calls) == 3 and "isolate_slid" not in res.stats and res.poses[(0, 3)][2, 3] == 798.5
+
+
 def test_per_object_drift_is_a_steady_move_of_its_points():
     """_object_point_moves: an object's move (mm) as its centroid's displacement and its turn times
     its points' RMS radius, so a turn about its own centre reads as a turn, whatever its place in
