@@ -69,6 +69,8 @@ def main() -> None:
         ids = [f.im_id for f in sc.frames]
         want = sorted({min(ids, key=lambda i: abs(i - int(x))) for x in a.frames.split(",")})
         frames = [f for f in sc.frames if f.im_id in want]
+        # each check view's image and edge strength, once per scene (every object and angle uses them)
+        pics = {f.im_id: (img := f.load_rgb(), gradient_magnitude(img, 1.0)) for f in frames}
         objs = sorted({i.obj_id for f in frames for i in f.instances})
         for o in objs:
             V = np.asarray(models[o].mesh.vertices, np.float64)
@@ -84,7 +86,7 @@ def main() -> None:
                     P = {i.obj_id: i.T_m2c for i in f.instances}
                     if o not in P:
                         continue
-                    img = f.load_rgb()
+                    img, mag = pics[f.im_id]
                     view = SimpleNamespace(K=f.camera.K, width=img.shape[1], height=img.shape[0], image=img)
                     T = P[o] @ E
                     box = _sphere_window(view, T, c, rad)
@@ -94,7 +96,7 @@ def main() -> None:
                     Kc = _subpixel_K(view.K, box, 1)
                     W, H = x1 - x0, y1 - y0
                     crop = img[y0:y1, x0:x1]
-                    mag_c = gradient_magnitude(img, 1.0)[y0:y1, x0:x1]
+                    mag_c = mag[y0:y1, x0:x1]
                     others = [(mesh_key(k, models[k]), Tk) for k, Tk in P.items() if k != o]
                     occ = r.render(Kc, W, H, others, outputs=("depth", "color")) if others else None
                     key = mesh_key(o, models[o])
