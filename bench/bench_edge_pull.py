@@ -17,7 +17,15 @@ cost). The samples are split into
   object cuts the silhouette (a T-junction, :func:`ycbvss.refine.edge.junction_mask`),
 - interior samples,
 
-written as Markdown / CSV / LaTeX (``edge_pull.*``) and as a PNG per frame (``edge_pull_<frame>.png``:
+Interior samples can be taken as the refiner's ``interior_ridge_groups`` takes them (``--ridge``:
+located on the template's own edge field; ``--area F``: in the template integrated over each
+pixel at F x F sub-pixels; ``--lit``: that template lit by the view's lighting fitted to the
+image). The image can be replaced by a re-render of the same frames (``--images ROOT``: a BOP root
+written by ``bench_image_formation.py`` (texture as emission) or ``bench_bias_lighting.py``
+(ambient light only), checked to hold the same GT) or, as a diagnostic of the sample locator alone,
+by the template itself (``--self``: the point-sampled template inside the objects).
+
+Written as Markdown / CSV / LaTeX (``edge_pull.*``) and as a PNG per frame (``edge_pull_<frame>.png``:
 the image magnified, each sample a dot sized by its pull, blue = dE / d deg > 0 (pushes the turn
 negative), red = dE / d deg < 0; interior samples as rings).
 
@@ -61,9 +69,10 @@ def sample_classes(instance: np.ndarray, uv: np.ndarray, normals: np.ndarray, la
 
 
 def rotation_pull(K: np.ndarray, T_m2c: np.ndarray, X_model: np.ndarray, centre: np.ndarray, axis: int,
-                  field, step_deg: float = 0.2) -> np.ndarray:
+                  field, step_deg: float = 0.2, across: bool = False) -> np.ndarray:
     """(N,) dE / d deg of each model point X_model (N, 3, mm) for a turn of the object about its
-    model axis ``axis`` through ``centre`` (finite difference of ``step_deg``); 0 outside the image."""
+    model axis ``axis`` through ``centre`` (finite difference of ``step_deg``); 0 outside the image.
+    ``across``: only E's slope across the edge (along its direction of largest curvature) counts."""
     import cv2
 
     from ycbvss.refine.edge import sample_field
@@ -74,9 +83,27 @@ def rotation_pull(K: np.ndarray, T_m2c: np.ndarray, X_model: np.ndarray, centre:
     R = cv2.Rodrigues(w)[0]
     uv0, ok0 = project_points(K, T_m2c, X_model)
     uv1, _ = project_points(K, T_m2c, (X_model - centre) @ R.T + centre)
-    _, grad, _, inside = sample_field(field, np.where(ok0[:, None], uv0, -1e9))
+    _, grad, hess, inside = sample_field(field, np.where(ok0[:, None], uv0, -1e9))
+    if across:
+        n = np.linalg.eigh(hess)[1][:, :, 1]
+        grad = np.einsum("ni,ni->n", grad, n)[:, None] * n
     pull = np.einsum("ni,ni->n", grad, (uv1 - uv0) / step_deg)
     return np.where(ok0 & inside, pull, 0.0)
+
+
+def rerendered_image(root: Path, scene_id: int, frame) -> np.ndarray:
+    """RGB of ``frame`` re-rendered under BOP root ``root`` (test split), after checking that its
+    scene_gt holds the same objects at the same translations (0.001 mm) as the suite frame."""
+    import json
+
+    from ycbvss.io.images import read_rgb
+
+    sd = root / "test" / f"{scene_id:06d}"
+    gt = json.loads((sd / "scene_gt.json").read_text())[str(frame.im_id)]
+    for g, ins in zip(gt, frame.instances, strict=True):
+        if g["obj_id"] != ins.obj_id or not np.allclose(np.asarray(g["cam_t_m2c"], float), ins.T_m2c[:3, 3], atol=1e-3):
+            raise SystemExit(f"{sd}: frame {frame.im_id} object {g['obj_id']} is not at the suite's GT")
+    return read_rgb(sd / "rgb" / f"{frame.im_id:06d}.png")
 
 
 def main() -> None:
@@ -89,7 +116,8 @@ def main() -> None:
     from ycbvss.refine.bundle import RefineOptions
     from ycbvss.refine.edge import edge_field, junction_mask, occluded_pixels
     from ycbvss.refine.jacobians import backproject_px
-    from ycbvss.refine.templates import ensure_meshes, get_renderer, render_view, view_edge_candidates
+    from ycbvss.refine.shading import lit_template, view_lighting
+    from ycbvss.refine.templates import area_template, ensure_meshes, get_renderer, render_view, view_edge_candidates
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dataset", required=True)
@@ -99,6 +127,13 @@ def main() -> None:
     ap.add_argument("--axis", choices=("x", "y", "z"), required=True, help="model axis of the turn")
     ap.add_argument("--frames", default="0", help="frame ids")
     ap.add_argument("--zoom", type=int, default=5)
+    ap.add_argument("--ridge", action="store_true", help="interior samples on the template's own edge field")
+    ap.add_argument("--area", type=int, default=1, help="interior samples in the pixel-area template (F x F)")
+    ap.add_argument("--lit", action="store_true", help="interior samples in the template lit as the image")
+    ap.add_argument("--composite", action="store_true", help="with --ridge: the template over the image's background")
+    ap.add_argument("--across", action="store_true", help="count only E's slope across each edge")
+    ap.add_argument("--images", default=None, help="BOP root with re-renders of the clip's frames (same GT)")
+    ap.add_argument("--self", action="store_true", help="the template itself as the image (locator check)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     out = Path(a.out)
@@ -116,12 +151,21 @@ def main() -> None:
         if a.obj not in ids:
             raise SystemExit(f"object {a.obj} is not in frame {im} of {a.clip}")
         img = f.load_rgb()
+        if a.images:
+            img = rerendered_image(Path(a.images), sc.scene_id, f)
         H, W = img.shape[:2]
         K = f.camera.K
         poses = {j: i.T_m2c for j, i in enumerate(f.instances)}
-        vr = render_view(r, models, ids, K, W, H, poses, back=True)
+        vr = render_view(r, models, ids, K, W, H, poses, back=True, supersample=a.area)
+        if a.self:
+            img = np.where((vr.instance > 0)[..., None], vr.color, img)
+        icol = vr.area_color if a.area > 1 and area_template(vr) else vr.color
+        if a.lit:
+            icol = lit_template(icol, vr.normal, vr.instance, img,
+                                coeffs=view_lighting(icol, vr.normal, vr.instance, img))
         c = view_edge_candidates(vr, creases=True, blur_sigma_px=1.0, normals=True, interior_max_turn_deg=20.0,
-                                 fold_min_angle_deg=180.0)
+                                 fold_min_angle_deg=180.0, interior_ridge_sigma_px=1.0 if a.ridge else 0.0,
+                                 interior_color=icol, interior_background=img if a.composite else None)
         j = ids.index(a.obj)
         lab = vr.obj_index.index(j) + 1
         T = poses[j]
@@ -135,7 +179,7 @@ def main() -> None:
         for interior, uv, dep, lbl in ((False, c.uv_c, c.d_c, c.l_c), (True, c.uv_i, c.d_i, c.l_i)):
             m = (lbl == lab) & (dep > 0)
             X = backproject_px(K, uv[m], dep[m]) @ Pi[:3, :3].T + Pi[:3, 3]
-            pull = rotation_pull(K, T, X, centre, axis, fld)
+            pull = rotation_pull(K, T, X, centre, axis, fld, across=a.across)
             cls = np.full(m.sum(), 4) if interior else sample_classes(vr.instance, uv[m], c.n_c[m], lab, junction)
             for k in range(len(CLASSES)):
                 per_class[k] += pull[cls == k].sum()

@@ -92,6 +92,7 @@ class _Stage:
         # interior_min_sharpness of this stage's bundle (the keyframe stage of a narrow-baseline bundle sets it)
         self.min_sharpness = opt.interior_min_sharpness if opt.interior_sharpness_bundles == "all" else 0.0
         self.turn_finest = 0.0           # interior_turn_finest_deg of this stage's bundle (set by its baseline group)
+        self.interior_ridge = False      # interior_ridge_groups holds this stage's bundle's group (keyframe stage)
         # edge_appearance / template_shading of this stage (True: always; "narrow": the keyframe stage of a
         # narrow-baseline bundle sets them)
         self.appearance = opt.edge_appearance is True
@@ -161,8 +162,11 @@ class _Stage:
         edge_jobs = []
         # f_point's area-integrated templates only where its matches are made anew
         area = bool(opt.use_point and opt.alpha > 0 and (recompute_matches or self._point_term is None))
+        ridge_area = edge_opts is not None and edge_opts["ridge_area"]   # f_edge's interior samples in the area colour
         for i in self.term_views:
-            vr = renders[i] = self.render(i, area=area)
+            vr = renders[i] = self.render(i, area=area or ridge_area)
+            if ridge_area:
+                area_template(vr)       # here, on the GL thread: f_edge's and f_point's pool jobs both read it
             seen = {(i, j) for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px}
             vis |= seen
             if edge_opts is not None and seen:
@@ -235,13 +239,22 @@ class _Stage:
                   fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur, normals=dil,
                   contact_mm=opt.edge_contact_mm, junction_px=self.junction_px,
                   normals_contact_mm=opt.contact_offset_mm if dil and opt.edge_contact_offset_k > 0.0 else 0.0)
-        return {"kw": kw, "app": app, "lit": app and self.shading, "dil": dil}
+        ridge = self.interior_ridge and self.at_finest
+        if ridge:
+            kw["interior_ridge_sigma_px"] = level_sigma
+        return {"kw": kw, "app": app, "lit": app and self.shading, "dil": dil,
+                "ridge_area": ridge and opt.template_supersample > 1, "ridge_lit": ridge and opt.interior_ridge_lit}
 
     def _submit_edge_job(self, i: int, vr: ViewRender, eo: dict):
         """View i's f_edge candidates (and its lit template) on the thread pool: a Future of
         :func:`_lit_edge_candidates`."""
-        return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] else None,
-                                   self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), eo["kw"])
+        kw = eo["kw"]
+        if eo["ridge_area"] and vr.area_color is not None:
+            kw = dict(kw, interior_color=vr.area_color)
+        ridge_lit = bool(eo["ridge_lit"] and vr.normal is not None)
+        return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] or ridge_lit else None,
+                                   self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
+                                   eo["app"], ridge_lit)
 
     def _edge_term(self, fields: dict, jobs: list, vis: set, eo: dict) -> EdgeTerm:
         """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
@@ -266,7 +279,8 @@ class _Stage:
         sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
         term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
                         curv_floor=opt.edge_curv_floor / sig,
-                        dilation_k=(opt.edge_dilation_k or opt.edge_contact_offset_k) if eo["dil"] else 0.0)
+                        dilation_k=(opt.edge_dilation_k or opt.edge_contact_offset_k) if eo["dil"] else 0.0,
+                        across_only=opt.edge_across_only)
         self._t("edge_sampling_s", time.perf_counter() - t0)
         return term
 
@@ -723,7 +737,8 @@ def _lit_colour(vr: ViewRender, image: np.ndarray, light: np.ndarray | None) -> 
 
 
 def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np.ndarray | None, lit: bool,
-                         light: np.ndarray | None, kw: dict) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
+                         light: np.ndarray | None, kw: dict, app: bool = True,
+                         ridge_lit: bool = False) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
     """One view's contour/interior candidates (:func:`view_edge_candidates` with the options ``kw``;
     ``image``: the view's image for the contour's appearance prediction, None: none). ``lit``: that
     prediction uses the lit template (``lit_color`` when already made, else made here with the
@@ -731,8 +746,14 @@ def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np
     lighting or None, the candidates)."""
     if lit and lit_color is None:
         lit_color, light = _lit_colour(vr, image, light)
-    return ((lit_color, light) if lit else (None, None)) + (
-        view_edge_candidates(vr, image=image, appearance_color=lit_color if lit else None, **kw),)
+    if ridge_lit:            # the interior samples' template (area colour or vr.color) lit as the image
+        base = kw.get("interior_color")
+        base_vr = vr if base is None else dc_replace(vr, color=base)
+        icol, light_r = _lit_colour(base_vr, image, light)
+        kw = dict(kw, interior_color=icol)
+        light = light if light is not None else light_r
+    return ((lit_color, light) if lit or ridge_lit else (None, None)) + (
+        view_edge_candidates(vr, image=image if app else None, appearance_color=lit_color if lit else None, **kw),)
 
 
 def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int],
@@ -1269,6 +1290,9 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
         opt = dc_replace(opt, edge_rim_depth=group in _groups(opt.edge_rim_depth))
     if isinstance(opt.table_flow, str):          # likewise
         opt = dc_replace(opt, table_flow=group in _groups(opt.table_flow))
+    if isinstance(opt.edge_across_only, str):    # likewise
+        opt = dc_replace(opt, edge_across_only=group in _groups(opt.edge_across_only))
+    stats["edge_across_only"] = bool(opt.edge_across_only)
     # True: with the table's rotation term; a group list: by the same group, with or without it
     contact = (group in _groups(opt.table_contact)) if isinstance(opt.table_contact, str) else bool(opt.table_contact and opt.table_flow)
     if contact is not opt.table_contact:
@@ -1337,6 +1361,8 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     turn_groups = {"wide": ("wide",), "medium": ("medium", "wide")}     # checked in refine_scene
     if group_now in turn_groups[opt.interior_turn_groups]:
         stage.turn_finest = opt.interior_turn_finest_deg
+    stage.interior_ridge = group_now in _groups(opt.interior_ridge_groups)
+    stats["interior_ridge"] = stage.interior_ridge
     stats["interior_turn_finest_deg"] = stage.turn_finest
     # "narrow": narrow-baseline bundles; "medium": those and the medium group (baseline < WIDE_BASELINE_DEG)
     lit_groups = {"narrow": ("narrow",), "medium": ("narrow", "medium")}
@@ -1392,7 +1418,10 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         if getattr(opt, name) not in (True, False, "narrow", "medium"):
             raise YcbvssError(f"RefineOptions.{name} must be True, False, 'narrow' or 'medium', got {getattr(opt, name)!r}",
                               where=f"scene {scene.scene_id}")
-    group_specs = {"bias_removal_groups": opt.bias_removal_groups, "supersample_groups": opt.supersample_groups}
+    group_specs = {"bias_removal_groups": opt.bias_removal_groups, "supersample_groups": opt.supersample_groups,
+                   "interior_ridge_groups": opt.interior_ridge_groups}
+    if isinstance(opt.edge_across_only, str):
+        group_specs["edge_across_only"] = opt.edge_across_only
     if opt.interior_sharpness_bundles != "all":
         group_specs["interior_sharpness_bundles"] = opt.interior_sharpness_bundles
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):

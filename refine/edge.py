@@ -510,12 +510,63 @@ def rim_depth(front_mm: np.ndarray, back_mm: np.ndarray, same_object: np.ndarray
     return np.where(ok, 0.5 * (front_mm + back_mm), front_mm)
 
 
+def ridge_edges(color: np.ndarray, inside: np.ndarray, sigma_px: float = 1.0, min_strength: float = 8.0,
+                iters: int = 4, max_move_px: float = 0.75) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Texture edges of a template crop ``color`` (h, w, 3 uint8) located with the operator the
+    image's edge field uses (:func:`edge_field`, colour, blur ``sigma_px``, bicubic reading): the
+    minima of the template's own E across the edge, inside ``inside`` (h, w) bool. A pixel is a
+    candidate where the blurred colour edge strength is at least ``min_strength`` (sRGB levels per
+    px) and E is lowest along its direction of largest curvature; Newton steps along that direction
+    (at most 0.25 px each) move it to the minimum; candidates that move more than ``max_move_px`` or
+    end where E curves down are dropped. Returns v, u (N,) the candidate pixels and uv (N, 2) the
+    minima (crop coordinates, pixel centres at integers).
+
+    Why: Canny on the raw grey template with a parabola on its blurred grey gradient puts a sample
+    where the image's colour edge field, blurred and bicubically read, is not at its minimum; on
+    fine print the difference is systematic (suite long-2's pudding box, at the exact GT with the
+    template itself as the image: the interior samples pull its turn about model y by -2.66 / deg,
+    -0.51 located this way; ``bench/bench_edge_pull.py``)."""
+    tf = edge_field(color, sigma_px, colour=True)
+    mag = gradient_magnitude(np.asarray(color, np.float32), sigma_px)
+    Euu, Euv, Evv = tf.data[..., 3], tf.data[..., 4], tf.data[..., 5]
+    half_tr = 0.5 * (Euu + Evv)
+    lam = half_tr + np.sqrt(np.maximum(half_tr ** 2 - (Euu * Evv - Euv ** 2), 0.0))
+    nx, ny = Euv, lam - Euu                       # eigenvector of the largest eigenvalue
+    flat = np.hypot(nx, ny) < 1e-12
+    nx, ny = np.where(flat, lam - Evv, nx), np.where(flat, Euv, ny)
+    norm = np.hypot(nx, ny) + 1e-12
+    v, u = np.nonzero(inside & (mag >= min_strength) & (lam > 0))
+    if len(v) == 0:
+        return v, u, np.zeros((0, 2))
+    n = np.stack([nx[v, u], ny[v, u]], 1) / norm[v, u][:, None]
+    p = np.stack([u, v], 1).astype(np.float64)
+    e0 = tf.data[v, u, 0]
+    ep = sample_field(tf, p + n)[0]
+    em = sample_field(tf, p - n)[0]
+    keep = (e0 <= ep) & (e0 < em)
+    v, u, p, n = v[keep], u[keep], p[keep], n[keep]
+    moved = np.zeros(len(p))
+    h = 0.1                                   # px: the curvature along n from the bicubic interpolant itself
+    for _ in range(iters):
+        e0, g, _, _ = sample_field(tf, p)
+        cn = (sample_field(tf, p + h * n)[0] - 2.0 * e0 + sample_field(tf, p - h * n)[0]) / (h * h)
+        gn = np.einsum("ni,ni->n", g, n)
+        step = np.clip(np.where(cn > 1e-9, -gn / np.maximum(cn, 1e-9), 0.0), -0.25, 0.25)
+        p += step[:, None] * n
+        moved += step
+    e0 = sample_field(tf, p)[0]
+    cn = sample_field(tf, p + h * n)[0] - 2.0 * e0 + sample_field(tf, p - h * n)[0]
+    ok = (np.abs(moved) <= max_move_px) & (cn > 0)
+    return v[ok], u[ok], p[ok]
+
+
 def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, normal: np.ndarray | None,
                         canny_lo: float = 20.0, canny_hi: float = 60.0, erode_px: int = 2,
                         fold_min_angle_deg: float = 25.0, back_depth: np.ndarray | None = None,
                         back_inst: np.ndarray | None = None, texture_max_turn_deg: float = 0.0,
                         surface_normal: np.ndarray | None = None,
-                        texture_min_sharpness: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        texture_min_sharpness: float = 0.0, texture_ridge_sigma_px: float = 0.0,
+                        texture_ridge_min_strength: float = 8.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,).
     ``normal`` None: no crease edges; ``fold_min_angle_deg``: see :func:`crease_edges`. With
     ``back_depth`` / ``back_inst`` a self-occlusion edge (a depth jump within the object, the near
@@ -524,7 +575,9 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     (Canny) edges only where the surface is flat at the pixel scale
     (:func:`ycbvss.refine.interior_edges.flat_at`); where one is dropped a crease edge may take its
     place. ``texture_min_sharpness`` > 0: texture edges only where they are sharp
-    (:func:`ycbvss.refine.interior_edges.sharp_at`), not on soft colour ramps."""
+    (:func:`ycbvss.refine.interior_edges.sharp_at`), not on soft colour ramps.
+    ``texture_ridge_sigma_px`` > 0: texture edges located by :func:`ridge_edges` at that blur (the
+    image edge field's operator; strength at least ``texture_ridge_min_strength``), not by Canny."""
     box = _labels_box(inst, 2)
     if box is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
@@ -534,7 +587,15 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     k = np.ones((2 * erode_px + 1, 2 * erode_px + 1), np.uint8)
     inside = (ic > 0) & (cv2.erode(lab, k) == lab) & (cv2.dilate(lab, k) == lab) if erode_px > 0 else ic > 0
     gray = cv2.cvtColor(np.ascontiguousarray(color[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
-    edges = (cv2.Canny(gray, canny_lo, canny_hi) > 0) & inside
+    if texture_ridge_sigma_px > 0:
+        rv, ru, ruv = ridge_edges(np.ascontiguousarray(color[y0:y1, x0:x1]), inside, texture_ridge_sigma_px,
+                                  texture_ridge_min_strength)
+        edges = np.zeros(inside.shape, bool)
+        edges[rv, ru] = True
+        sub = np.zeros(inside.shape + (2,))
+        sub[rv, ru] = ruv - np.stack([ru, rv], 1)
+    else:
+        edges = (cv2.Canny(gray, canny_lo, canny_hi) > 0) & inside
     if texture_min_sharpness > 0:
         v, u = np.nonzero(edges)
         edges[v, u] = sharp_at(gray, v, u, texture_min_sharpness)
@@ -543,7 +604,7 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
         edges[v, u] = flat_at(surface_normal[y0:y1, x0:x1], ic, np.stack([u, v], 1).astype(np.float64),
                               texture_max_turn_deg)
     v, u = np.nonzero(edges)
-    uv = np.stack([u, v], 1).astype(np.float64) + subpixel_offsets(gray, v, u)
+    uv = np.stack([u, v], 1).astype(np.float64) + (sub[v, u] if texture_ridge_sigma_px > 0 else subpixel_offsets(gray, v, u))
     dep, labs = depth[v + y0, u + x0], ic[v, u]
     if normal is not None:
         ce, off, jumps = crease_edges(normal[y0:y1, x0:x1], depth[y0:y1, x0:x1], min_angle_deg=fold_min_angle_deg,

@@ -201,6 +201,33 @@ class RefineOptions:
     # bias_removal_groups sets 20 deg on medium and wide scenes with the other corrections
     interior_turn_finest_deg: float = 0.0
     interior_turn_groups: str = "wide"
+    # keyframe bundles of these baseline groups ("" none, e.g. "medium,wide"): at the finest blur level
+    # f_edge's interior texture samples are located on the template's own edge field (the image's
+    # operator: colour, the level's blur, bicubic minima; refine.edge.ridge_edges), in the
+    # pixel-area template where the bundle supersamples (template_supersample), not by Canny on the
+    # point-sampled grey template. Off by default. Measured (2026-11-29, session 59, bench/results/ycbv21
+    # README "session 59"): at the exact GT the located samples pull the four long misses less
+    # (bench_edge_pull, interior samples, 4 frames: pudding box about y -3.80 -> -1.50 / deg with the
+    # 2 x 2 area colour, gelatin box about y 6.28 -> 3.14, extra-large clamp about x -1.65 -> -1.17),
+    # but refined from the exact GT (long clips 1-2, seed 0, "medium,wide") long-1 ends further off
+    # (tx/ty/tz/R/PRJ 0.105/0.058/0.376/0.160/0.107 -> 0.119/0.064/0.522/0.204/0.114; the banana's R
+    # 0.39 -> 0.63 deg) and long-2 about the same (0.038/0.028/0.184/0.112/0.070 -> 0.035/0.026/0.183/
+    # 0.107/0.064); lit (interior_ridge_lit) 0.115/0.062/0.478/0.198/0.113 and 0.036/0.026/0.192/0.120/0.066
+    interior_ridge_groups: str = ""
+    # with interior_ridge_groups: that template lit by the view's lighting (refine.shading, fitted to
+    # the image as for template_shading) before the samples are located
+    interior_ridge_lit: bool = False
+    # True: f_edge's samples move in E only across their edges (refine.terms.EdgeTerm.across_only):
+    # E's slope along an edge (the edge's strength varying with the image's contrast) pulls no sample.
+    # Why: at the exact GT of long-2 (frames 0/50/100/150) the pudding box's interior samples pull its
+    # turn about model y by -3.80 / deg, -0.85 of it across their edges (bench_edge_pull --across);
+    # long-1's banana, free contour samples, about y: -1.14, -0.16 across. Measured (2026-11-29, session 59) from the exact GT,
+    # long clips 1-2, seed 0: long-1 0.105/0.058/0.376/0.160/0.107 -> 0.099/0.053/0.260/0.129/0.101
+    # (the banana's R 0.39 -> 0.17 deg, tz 0.61 -> 0.29 mm; the gelatin box's R 0.24 -> 0.19), long-2
+    # 0.038/0.028/0.184/0.112/0.070 -> 0.031/0.030/0.133/0.110/0.066.
+    # A baseline-group list: on the scenes whose keyframes' baseline is in one of them. Default
+    # "medium,wide" (session 59; narrow bundles, the short clips, not measured with it).
+    edge_across_only: bool | str = "medium,wide"
     # scenes whose keyframes the initial cameras see over a baseline of one of these groups
     # (comma-separated, of "narrow", "medium", "wide"; "": none) are refined with every appearance
     # bias measured so far removed together, for the whole scene (keyframes, non-keyframe cameras,

@@ -84,7 +84,14 @@ class EdgeTerm:
     # is ``dilation_k`` times the mean curvature of one contour sample along its normal, i.e. the
     # contour's overall size is worth ``dilation_k`` samples, not all of them (see _best_dilation)
     dilation_k: float = 0.0
+    # True: each sample moves in E only across its edge. At every linearisation the sample's
+    # direction n of E's largest curvature (across the edge) and its position uv0 are fixed; until
+    # the next one its cost is E(uv0 + ((uv - uv0) . n) n), so its slope along the edge (where the
+    # edge is stronger or weaker) exerts no pull: along an edge a sample's position is not observed
+    # (the aperture problem), the edge's strength varies with the image's contrast there
+    across_only: bool = False
     _priors: dict = field(default_factory=dict, repr=False)
+    _anchors: dict = field(default_factory=dict, repr=False)
 
     def n_obs(self) -> int:
         return int(sum(len(gr.X) for gr in self.groups))
@@ -167,6 +174,13 @@ class EdgeTerm:
             if self._dilated(gr):
                 tot += self._dilation_cost(pb, gi, gr)
                 continue
+            if gi in self._anchors:
+                uv0, n, ok0 = self._anchors[gi]
+                uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
+                at = uv0 + np.einsum("ni,ni->n", uv - uv0, n)[:, None] * n
+                E = sample_E(f, np.where((valid & ok0)[:, None], at, -1e9))
+                tot += float(np.where(valid & ok0, E, 1.0).sum())
+                continue
             if f.interp != "cubic":
                 uv, valid = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
                 E = sample_E(f, np.where(valid[:, None], uv, -1e9))
@@ -180,19 +194,32 @@ class EdgeTerm:
     def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
         total, out = 0.0, []
         self._priors = {}          # re-measured at this linearisation point (b = 0)
+        self._anchors = {}
         for gi, gr in enumerate(self.groups):
+            across = None
             if self._dilated(gr):      # linearised where the nuisance rests (b*), b marginalised below
                 bst, prior, E, grad, H, ok, Jc, Jo = self._best_dilation(pb, gi, gr)
                 total += float(E.sum()) + 0.5 * prior * bst * bst
             else:
                 E, grad, H, ok, Jc, Jo = self._eval(pb, gr, True)
                 total += float(E.sum())
+                if self.across_only:
+                    across = across_edge_directions(H)
+                    uv0, _ = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
+                    self._anchors[gi] = (uv0, across, ok)
             if not ok.any():
                 continue
             nk = gr.N[ok] if self._dilated(gr) else None
             if not ok.all():       # (all valid is the common case: no copies then)
                 grad, H, Jc, Jo = grad[ok], H[ok], Jc[ok], Jo[ok]
-            A = self._surrogate(grad, H, self.weight)
+                across = across[ok] if across is not None else None
+            if across is not None:     # the slope and curvature across the edge only
+                gn = np.einsum("ni,ni->n", grad, across)
+                grad = gn[:, None] * across
+                A = self._surrogate(grad, H, self.weight)
+                A = np.einsum("ni,nij,nj->n", across, A, across)[:, None, None] * np.einsum("ni,nj->nij", across, across)
+            else:
+                A = self._surrogate(grad, H, self.weight)
             a, b = int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j])
             out.append(Linearization(a, b, Jc, Jo, A, grad * self.weight))
             if nk is not None:
@@ -232,6 +259,14 @@ class EdgeTerm:
     def mean_cost(self, pb: BundleProblem) -> float:
         n = self.n_obs()
         return self.cost(pb) / self.weight / n if n else float("nan")
+
+
+def across_edge_directions(H: np.ndarray) -> np.ndarray:
+    """(N, 2) unit eigenvectors of the largest eigenvalue of symmetric 2x2 matrices H (N, 2, 2): for
+    E's Hessian at an edge sample, the direction across the edge."""
+    a, b, c = H[:, 0, 0], 0.5 * (H[:, 0, 1] + H[:, 1, 0]), H[:, 1, 1]
+    th = 0.5 * np.arctan2(2 * b, a - c)
+    return np.stack([np.cos(th), np.sin(th)], 1)
 
 
 def robust_cost_weights(r: np.ndarray, rho: float, floor_px: float, cap_px: float

@@ -46,7 +46,7 @@ def _resolved(opt):
 def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
     # edge_rim_depth, table_flow and table_contact bools that stay, template_supersample 1: nothing else to resolve
     opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1,
-                        table_flow=False, table_contact=False)
+                        table_flow=False, table_contact=False, edge_across_only=False)
     for name, got, stats in _resolved(opt):
         assert stats["bias_removal"] is (name in removed)
         if name in removed:
@@ -54,6 +54,13 @@ def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, 
             assert any(getattr(opt, k) != v for k, v in BIAS_REMOVAL.items())     # the caller's options untouched
         else:
             assert got is opt
+
+
+def test_edge_across_only_resolves_by_the_scenes_baseline_group():
+    got = {name: (o.edge_across_only, st["edge_across_only"]) for name, o, st in _resolved(RefineOptions())}
+    assert got == {"wide": (True, True), "medium": (True, True), "narrow": (False, False)}
+    got = {name: o.edge_across_only for name, o, _ in _resolved(RefineOptions(edge_across_only="wide"))}
+    assert got == {"wide": True, "medium": False, "narrow": False}
 
 
 def test_the_default_removes_the_biases_on_medium_and_wide_scenes():
