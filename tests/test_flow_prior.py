@@ -121,7 +121,10 @@ def _level_trace(monkeypatch, flow_prior_levels: str) -> list[str]:
     gt = {(f.im_id, i.obj_id): i.T_m2c for f in ps.frames for i in f.instances}
     opt = B.RefineOptions(flow_prior="residual", flow_prior_levels=flow_prior_levels, bias_removal_groups="",
                           keyframe_step=1, max_iters=2, coarse_iters=1, extra_iters=0, verify_coarse=False,
-                          compute_uncertainty=False, turn_check=False)
+                          compute_uncertainty=False, turn_check=False,
+                          # one pass traced: with f_edge across edges only this scene's object 5 (barely
+                          # visible) trips the runaway check and the slide restart repeats the levels
+                          edge_across_only=False)
     B.refine_scene(ps.scene, ps.models, gt, opt, images=imgs)
     # one "E" per view at each level start: keep the first of each run
     return [t for n, t in enumerate(trace) if t != "E" or n == 0 or trace[n - 1] != "E"]
