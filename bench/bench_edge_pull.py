@@ -165,7 +165,7 @@ def main() -> None:
                                 coeffs=view_lighting(icol, vr.normal, vr.instance, img))
         c = view_edge_candidates(vr, creases=True, blur_sigma_px=1.0, normals=True, interior_max_turn_deg=20.0,
                                  fold_min_angle_deg=180.0, interior_ridge_sigma_px=1.0 if a.ridge else 0.0,
-                                 interior_color=icol, interior_background=img if a.composite else None)
+                                 interior_color=np.where((vr.instance > 0)[..., None], icol, img) if a.composite else icol)
         j = ids.index(a.obj)
         lab = vr.obj_index.index(j) + 1
         T = poses[j]

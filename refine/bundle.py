@@ -749,9 +749,8 @@ def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np
     if ridge_lit:            # the interior samples' template (area colour or vr.color) lit as the image
         base = kw.get("interior_color")
         base_vr = vr if base is None else dc_replace(vr, color=base)
-        icol, light_r = _lit_colour(base_vr, image, light)
+        icol, light = _lit_colour(base_vr, image, light)     # the lighting passed in, or fitted here
         kw = dict(kw, interior_color=icol)
-        light = light if light is not None else light_r
     return ((lit_color, light) if lit or ridge_lit else (None, None)) + (
         view_edge_candidates(vr, image=image if app else None, appearance_color=lit_color if lit else None, **kw),)
 

@@ -122,6 +122,12 @@ def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float 
     derivatives (no pull)."""
     img = srgb_to_linear(image) if linear else np.asarray(image)
     mag = gradient_magnitude(img if (colour and img.ndim == 3) else to_gray_f32(img), sigma_px)
+    return _field_from_magnitude(mag, sigma_px, norm_percentile, interp)
+
+
+def _field_from_magnitude(mag: np.ndarray, sigma_px: float, norm_percentile: float = 100.0,
+                          interp: str = "cubic") -> EdgeField:
+    """:func:`edge_field` from its edge strength ``mag`` (H, W): normalised, E and its derivatives."""
     mx = float(mag.max()) if norm_percentile >= 100 else float(np.percentile(mag, norm_percentile))
     if mx <= 1e-6:
         mx = float(mag.max())
@@ -510,6 +516,15 @@ def rim_depth(front_mm: np.ndarray, back_mm: np.ndarray, same_object: np.ndarray
     return np.where(ok, 0.5 * (front_mm + back_mm), front_mm)
 
 
+def across_edge_directions(H: np.ndarray) -> np.ndarray:
+    """(N, 2) unit eigenvectors of the largest eigenvalue of symmetric 2x2 matrices H (N, 2, 2): for
+    E's Hessian at an edge sample, the direction across the edge (the angle of
+    :func:`ycbvss.refine.terms.psd2`'s first eigenvector)."""
+    a, b, c = H[:, 0, 0], 0.5 * (H[:, 0, 1] + H[:, 1, 0]), H[:, 1, 1]
+    th = 0.5 * np.arctan2(2 * b, a - c)
+    return np.stack([np.cos(th), np.sin(th)], 1)
+
+
 def ridge_edges(color: np.ndarray, inside: np.ndarray, sigma_px: float = 1.0, min_strength: float = 8.0,
                 iters: int = 4, max_move_px: float = 0.75) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Texture edges of a template crop ``color`` (h, w, 3 uint8) located with the operator the
@@ -526,19 +541,17 @@ def ridge_edges(color: np.ndarray, inside: np.ndarray, sigma_px: float = 1.0, mi
     fine print the difference is systematic (suite long-2's pudding box, at the exact GT with the
     template itself as the image: the interior samples pull its turn about model y by -2.66 / deg,
     -0.51 located this way; ``bench/bench_edge_pull.py``)."""
-    tf = edge_field(color, sigma_px, colour=True)
-    mag = gradient_magnitude(np.asarray(color, np.float32), sigma_px)
-    Euu, Euv, Evv = tf.data[..., 3], tf.data[..., 4], tf.data[..., 5]
-    half_tr = 0.5 * (Euu + Evv)
-    lam = half_tr + np.sqrt(np.maximum(half_tr ** 2 - (Euu * Evv - Euv ** 2), 0.0))
-    nx, ny = Euv, lam - Euu                       # eigenvector of the largest eigenvalue
-    flat = np.hypot(nx, ny) < 1e-12
-    nx, ny = np.where(flat, lam - Evv, nx), np.where(flat, Euv, ny)
-    norm = np.hypot(nx, ny) + 1e-12
-    v, u = np.nonzero(inside & (mag >= min_strength) & (lam > 0))
+    mag = gradient_magnitude(color, sigma_px)       # colour edge strength, as edge_field(colour=True)
+    tf = _field_from_magnitude(mag, sigma_px)
+    v, u = np.nonzero(inside & (mag >= min_strength))
+    H = np.empty((len(v), 2, 2))
+    H[:, 0, 0], H[:, 0, 1], H[:, 1, 1] = tf.data[v, u, 3], tf.data[v, u, 4], tf.data[v, u, 5]
+    H[:, 1, 0] = H[:, 0, 1]
+    n = across_edge_directions(H)
+    curved = np.einsum("ni,nij,nj->n", n, H, n) > 0     # E curves up across the edge
+    v, u, n = v[curved], u[curved], n[curved]
     if len(v) == 0:
         return v, u, np.zeros((0, 2))
-    n = np.stack([nx[v, u], ny[v, u]], 1) / norm[v, u][:, None]
     p = np.stack([u, v], 1).astype(np.float64)
     e0 = tf.data[v, u, 0]
     ep = sample_field(tf, p + n)[0]

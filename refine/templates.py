@@ -234,8 +234,7 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          interior_max_turn_deg: float = 0.0, interior_min_sharpness: float = 0.0,
                          contact_mm: float = 0.0, normals_contact_mm: float = 0.0,
                          junction_px: float = 0.0, interior_ridge_sigma_px: float = 0.0,
-                         interior_color: np.ndarray | None = None,
-                         interior_background: np.ndarray | None = None) -> EdgeCandidates:
+                         interior_color: np.ndarray | None = None) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -260,8 +259,7 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     (T-junctions, :func:`ycbvss.refine.edge.junction_mask`). ``interior_ridge_sigma_px`` > 0: interior
     texture candidates located on the template's own edge field at that blur
     (:func:`ycbvss.refine.edge.ridge_edges`), in ``interior_color`` (e.g. the pixel-area template
-    ``vr.area_color``; None: ``vr.color``), composited over ``interior_background`` (the view's
-    image; None: black) so that samples near the contour see the image's background within the blur."""
+    ``vr.area_color``; None: ``vr.color``)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
                                         contact_mm=contact_mm, junction_px=junction_px)
     if blur_sigma_px is not None:
@@ -272,8 +270,6 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
             off, n = appearance_offsets(geo, l_c, vr.instance, col, image, blur_sigma_px)
             uv_c = uv_c + off[:, None] * n
     icol = vr.color if interior_color is None else interior_color
-    if interior_background is not None and interior_ridge_sigma_px > 0:
-        icol = np.where((vr.instance > 0)[..., None], icol, interior_background)
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, icol, vr.normal if creases else None,
                                          erode_px=erode_px, fold_min_angle_deg=fold_min_angle_deg,
                                          back_depth=vr.back_depth_mm, back_inst=vr.back_instance,

@@ -26,7 +26,7 @@ import numpy as np
 from ..geometry.se3 import inv_T
 from .cubic_kernel import edge_cost_sum
 from .normal_kernel import as_f64
-from .edge import EdgeField, sample_E, sample_field
+from .edge import EdgeField, across_edge_directions, sample_E, sample_field
 from .jacobians import MIN_Z_MM, _se3_jac, object_point_jacobians, project_points, transfer_point_jacobians
 from .problem import BundleProblem
 
@@ -103,7 +103,7 @@ class EdgeTerm:
         E, grad, H, inside = sample_field(self.fields[gr.i], uv)
         ok = valid & inside
         E = np.where(ok, E, 1.0)
-        return E, grad, H, ok, Jc, Jo
+        return E, grad, H, ok, Jc, Jo, uv
 
     def _dilated(self, gr: EdgeGroup) -> bool:
         return self.dilation_k > 0.0 and gr.N is not None
@@ -201,11 +201,10 @@ class EdgeTerm:
                 bst, prior, E, grad, H, ok, Jc, Jo = self._best_dilation(pb, gi, gr)
                 total += float(E.sum()) + 0.5 * prior * bst * bst
             else:
-                E, grad, H, ok, Jc, Jo = self._eval(pb, gr, True)
+                E, grad, H, ok, Jc, Jo, uv0 = self._eval(pb, gr, True)
                 total += float(E.sum())
                 if self.across_only:
                     across = across_edge_directions(H)
-                    uv0, _ = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
                     self._anchors[gi] = (uv0, across, ok)
             if not ok.any():
                 continue
@@ -213,11 +212,11 @@ class EdgeTerm:
             if not ok.all():       # (all valid is the common case: no copies then)
                 grad, H, Jc, Jo = grad[ok], H[ok], Jc[ok], Jo[ok]
                 across = across[ok] if across is not None else None
-            if across is not None:     # the slope and curvature across the edge only
+            if across is not None:     # the slope and curvature across the edge only: n^T surrogate n, along n
                 gn = np.einsum("ni,ni->n", grad, across)
                 grad = gn[:, None] * across
-                A = self._surrogate(grad, H, self.weight)
-                A = np.einsum("ni,nij,nj->n", across, A, across)[:, None, None] * np.einsum("ni,nj->nij", across, across)
+                curv = np.maximum(np.einsum("ni,nij,nj->n", across, H, across), 0.0) + self.curv_floor * np.abs(gn)
+                A = (self.weight * curv)[:, None, None] * np.einsum("ni,nj->nij", across, across)
             else:
                 A = self._surrogate(grad, H, self.weight)
             a, b = int(pb.cam_block[gr.i]), int(pb.obj_block[gr.j])
@@ -259,14 +258,6 @@ class EdgeTerm:
     def mean_cost(self, pb: BundleProblem) -> float:
         n = self.n_obs()
         return self.cost(pb) / self.weight / n if n else float("nan")
-
-
-def across_edge_directions(H: np.ndarray) -> np.ndarray:
-    """(N, 2) unit eigenvectors of the largest eigenvalue of symmetric 2x2 matrices H (N, 2, 2): for
-    E's Hessian at an edge sample, the direction across the edge."""
-    a, b, c = H[:, 0, 0], 0.5 * (H[:, 0, 1] + H[:, 1, 0]), H[:, 1, 1]
-    th = 0.5 * np.arctan2(2 * b, a - c)
-    return np.stack([np.cos(th), np.sin(th)], 1)
 
 
 def robust_cost_weights(r: np.ndarray, rho: float, floor_px: float, cap_px: float
