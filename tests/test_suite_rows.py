@@ -1,4 +1,4 @@
-"""Rows of the validation suite: the model-frame rotation error and appending to an older rows file; a clip named wrongly."""
+"""Rows of the validation suite: the model-frame rotation error, appending to an older rows file, reading a gzipped one; a clip named wrongly."""
 from __future__ import annotations
 
 import csv
@@ -71,3 +71,17 @@ def test_restart_flags_keep_the_first_pass_fallback_when_a_restart_is_kept():
     dropped = {"ridge_fallback": [[21]], "slide_restart": {"objects": [21], "ridge_fallback": [[21]], "kept": False}}
     assert restart_flags(dropped) == ({21}, set())
     assert restart_flags({}) == (set(), set())
+
+
+def test_read_rows_reads_a_gzipped_rows_file_as_the_plain_one(tmp_path):
+    import gzip
+
+    rows_path = tmp_path / "rows.csv"
+    with open(rows_path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=ROW_FIELDS)
+        w.writeheader()
+        w.writerow({f: ("converged" if f == "status" else "3") for f in ROW_FIELDS})
+    with open(rows_path, "rb") as src, gzip.open(tmp_path / "rows.csv.gz", "wb") as dst:
+        dst.write(src.read())
+    plain, packed = suite_run.read_rows(rows_path), suite_run.read_rows(tmp_path / "rows.csv.gz")
+    assert packed == plain and plain[0]["obj_id"] == 3 and plain[0]["tz_mm"] == 3.0

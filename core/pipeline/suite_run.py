@@ -14,6 +14,7 @@ axis is excluded), PRJ (px), ADD(-S) (mm), the reported sigma (mm, deg), status 
 from __future__ import annotations
 
 import csv
+import gzip
 import hashlib
 import time
 import warnings
@@ -245,9 +246,12 @@ def execute(runs: list[Run], root: Path, models: dict, out: Path, opts_kw: dict 
 
 
 def read_rows(path: Path) -> list[dict]:
+    """The rows of a suite run's ``rows.csv`` (or a gzip-compressed ``rows.csv.gz``, as the results
+    folders keep them), numbers parsed."""
     num = {"scene_id", "held_out", "seed", "im_id", "obj_id", "n_frames"}
     out = []
-    with open(path, newline="") as fh:
+    opener = gzip.open if str(path).endswith(".gz") else open
+    with opener(path, "rt", newline="") as fh:
         for r in csv.DictReader(fh):
             d = {}
             for k, v in r.items():
