@@ -9,12 +9,13 @@ poses the ADD < 2 mm share, the poses with ADD > 10 mm, the converged share.
         --run "short dev, exact GT=/tmp/base/rows.csv:kind=short,init=gt,scene_id=1|2|4|5|6|7"
 
 A selection is ``label=rows.csv[:field=value|value,...]``: rows whose field is one of the values.
-Rows come from ``bench/suite_runs.py run`` (``rows.csv`` under its ``--work``).
+Rows come from ``bench/suite_runs.py run`` (``rows.csv`` under its ``--work``; a gzipped copy reads as well).
 """
 from __future__ import annotations
 
 import argparse
 import csv
+import gzip
 from collections import defaultdict
 from pathlib import Path
 
@@ -33,7 +34,8 @@ def parse_run(spec: str) -> tuple[str, Path, dict[str, set[str]]]:
 
 
 def select(path: Path, filters: dict[str, set[str]]) -> list[dict]:
-    with open(path, newline="") as fh:
+    """The rows of ``path`` (``rows.csv`` or ``rows.csv.gz``) whose fields match ``filters``."""
+    with (gzip.open if path.suffix == ".gz" else open)(path, "rt", newline="") as fh:
         return [r for r in csv.DictReader(fh) if all(r.get(k) in v for k, v in filters.items())]
 
 
