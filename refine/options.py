@@ -228,7 +228,7 @@ class RefineOptions:
     # A baseline-group list: on the scenes whose keyframes' baseline is in one of them. Default
     # "medium,wide" (session 59). Not "narrow" (session 60, short clips 4-9, seeds 0/1/5/6, paper init,
     # bench/results/ycbv21/across_short_s60): mean over objects 0.13/0.13/0.73/0.29/0.17 ->
-    # 0.11/0.12/0.74/0.27/0.16 but objects missing a short target 4 -> 5 of 19 (the pitcher base's tz
+    # 0.11/0.12/0.74/0.27/0.16 but objects missing a short target 4 -> 5 of 19 (the large clamp's tz
     # and R worse at every seed), converged 0.78 -> 0.70 and ADD <= 2 mm among converged 0.992 -> 0.957:
     # with barely differing views the along-edge slope is part of what fixes depth and rotation.
     edge_across_only: bool | str = "medium,wide"
