@@ -18,6 +18,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .cubic_kernel import minimum_along
 from .edge import EdgeField, gradient_magnitude, linear_to_srgb, sample_bilinear, sample_E, srgb_to_linear
 
 
@@ -82,9 +83,13 @@ def _minimum_along(field, uv: np.ndarray, n: np.ndarray, half_px: float, step_px
     of ``step_px``, a five times finer grid around its minimum, a parabola through the fine minimum
     and its two neighbours."""
     coarse = np.arange(-half_px, half_px + 1e-9, step_px)
-    k, _ = _grid_minimum(field, uv, n, np.zeros(len(uv)), coarse)
     fine_step = step_px / 5.0
     fine = np.arange(-5, 6) * fine_step
+    if field.interp == "cubic":      # the same search point by point, compiled (refine.cubic_kernel)
+        H, W = field.shape
+        return minimum_along(field.E_padded, H, W, np.ascontiguousarray(uv, dtype=np.float64),
+                             np.ascontiguousarray(n, dtype=np.float64), coarse, fine, fine_step, half_px)
+    k, _ = _grid_minimum(field, uv, n, np.zeros(len(uv)), coarse)
     k2, E = _grid_minimum(field, uv, n, coarse[k], fine)
     k2 = np.clip(k2, 1, len(fine) - 2)
     r = np.arange(len(uv))

@@ -104,3 +104,60 @@ def edge_cost_sum(Ep: np.ndarray, height: int, width: int, K: np.ndarray, T: np.
             s += row * wv[r]
         total += s
     return total
+
+
+@njit(cache=True, inline="always")
+def _value_at(Ep: np.ndarray, height: int, width: int, u: float, v: float, wu: np.ndarray, dwu: np.ndarray,
+              wv: np.ndarray, dwv: np.ndarray) -> float:
+    """E at (u, v) as ``edge.sample_E`` reads it: the Catmull-Rom value (the tap sums of
+    :func:`cubic_sample`, in the same order) inside [0, W-1] x [0, H-1], 1 outside or not finite."""
+    if not (np.isfinite(u) and np.isfinite(v) and u >= 0 and v >= 0 and u <= width - 1 and v <= height - 1):
+        return 1.0
+    fu, fv = np.floor(u), np.floor(v)
+    iu, iv = int(fu), int(fv)
+    _weights(u - fu, wu, dwu)
+    _weights(v - fv, wv, dwv)
+    s = 0.0
+    for r in range(4):
+        row = 0.0
+        for c in range(4):
+            row += Ep[iv + r, iu + c] * wu[c]
+        s += row * wv[r]
+    return s
+
+
+@njit(cache=True, nogil=True)
+def minimum_along(Ep: np.ndarray, height: int, width: int, uv: np.ndarray, n: np.ndarray, coarse: np.ndarray,
+                  fine: np.ndarray, fine_step: float, half_px: float) -> np.ndarray:
+    """Signed offsets t (N,) of the smallest E along uv + t n (uv, n (N, 2) px), E read like
+    :func:`_value_at`: the first minimum over the ``coarse`` offsets, then over ``fine`` offsets
+    about it, a parabola through the fine minimum (moved off the grid's ends) and its two
+    neighbours (fraction clipped to +-1 step), the result clipped to +-``half_px``. The arithmetic
+    of ``contour_match._minimum_along``'s array form, point by point."""
+    N = uv.shape[0]
+    out = np.empty(N)
+    nf = fine.shape[0]
+    Ef = np.empty(nf)
+    wu, dwu, wv, dwv = np.empty(4), np.empty(4), np.empty(4), np.empty(4)
+    for p in range(N):
+        u0, v0, nu, nv = uv[p, 0], uv[p, 1], n[p, 0], n[p, 1]
+        best, kc = np.inf, 0
+        for k in range(coarse.shape[0]):
+            t = 0.0 + coarse[k]
+            e = _value_at(Ep, height, width, u0 + t * nu, v0 + t * nv, wu, dwu, wv, dwv)
+            if e < best:
+                best, kc = e, k
+        best, kf = np.inf, 0
+        for k in range(nf):
+            t = coarse[kc] + fine[k]
+            e = _value_at(Ep, height, width, u0 + t * nu, v0 + t * nv, wu, dwu, wv, dwv)
+            Ef[k] = e
+            if e < best:
+                best, kf = e, k
+        kf = min(max(kf, 1), nf - 2)
+        e0, e1, e2 = Ef[kf - 1], Ef[kf], Ef[kf + 1]
+        den = e0 - 2.0 * e1 + e2
+        frac = 0.5 * (e0 - e2) / den if den > 1e-12 else 0.0
+        frac = min(max(frac, -1.0), 1.0)
+        out[p] = min(max(coarse[kc] + fine[kf] + frac * fine_step, -half_px), half_px)
+    return out

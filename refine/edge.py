@@ -15,9 +15,9 @@ from functools import cached_property
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 from . import srgb
+from .contour_kernel import contour_bits, near_own_occluded
 from .cubic_kernel import cubic_sample
 from .interior_edges import flat_at, sharp_at
 
@@ -385,6 +385,20 @@ def _labels_box(inst: np.ndarray, margin_px: int) -> tuple[int, int, int, int] |
             min(ys[-1] + margin_px + 1, H), min(xs[-1] + margin_px + 1, W))
 
 
+def _outward_directions() -> np.ndarray:
+    """(16, 2) float32: the outward unit direction of a contour pixel for each 4-bit mask of the
+    _N4 directions it borders in (the sum of those (du, dv), normalised; 0 for none)."""
+    bits = np.arange(16)
+    d = np.zeros((16, 2), np.float32)
+    for k, (dv, du) in enumerate(_N4):
+        d[(bits & (1 << k)) != 0] += (du, dv)
+    n = np.linalg.norm(d, axis=1, keepdims=True)
+    return np.where(n > 0, d / np.maximum(n, 1e-9), 0.0)
+
+
+_OUTWARD = _outward_directions()
+
+
 def all_contour_points(inst: np.ndarray, depth: np.ndarray, back_depth: np.ndarray | None = None,
                        back_inst: np.ndarray | None = None, max_chord_mm: float = MAX_RIM_CHORD_MM,
                        contact_mm: float = 0.0, junction_px: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -405,21 +419,14 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray, back_depth: np.ndarr
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
     y0, x0, y1, x1 = box
     ic, dc = inst[y0:y1, x0:x1], depth[y0:y1, x0:x1]
-    h, w = ic.shape
-    pad_i = np.pad(ic, 1, constant_values=-1)
-    pad_d = np.pad(dc, 1, constant_values=0)
-    is_c = np.zeros((h, w), bool)
-    mc = ic > 0
-    edges = []
-    for dv, du in _N4:
-        ni = pad_i[1 + dv:1 + dv + h, 1 + du:1 + du + w]
-        nd = pad_d[1 + dv:1 + dv + h, 1 + du:1 + du + w]
-        far = (nd > dc) if contact_mm <= 0.0 else (nd - dc >= contact_mm)
-        edge = mc & (ni != ic) & (ni != -1) & ((ni == 0) | far)
-        is_c |= edge
-        edges.append(edge)
+    # the pixel rules in one compiled pass (refine.contour_kernel): bit k of ``bits`` = a contour
+    # pixel bordering in direction _N4[k]
+    dcc = np.ascontiguousarray(dc)
+    bits, occ = contour_bits(np.ascontiguousarray(ic), dcc, dcc.dtype.type(contact_mm), contact_mm > 0.0,
+                             junction_px > 0.0)
+    is_c = bits != 0
     if junction_px > 0.0:
-        is_c &= ~junction_mask(ic, occluded_pixels(ic, dc), junction_px)
+        is_c &= ~junction_mask(ic, occ, junction_px)
     if y0 == 0:
         is_c[0, :] = False
     if x0 == 0:
@@ -429,11 +436,7 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray, back_depth: np.ndarr
     if x1 == inst.shape[1]:
         is_c[:, -1] = False
     v, u = np.nonzero(is_c)
-    d = np.zeros((len(v), 2), np.float32)      # outward direction, summed at the contour pixels only
-    for (dv, du), edge in zip(_N4, edges):
-        d[edge[v, u]] += (du, dv)
-    n = np.linalg.norm(d, axis=1, keepdims=True)
-    d = np.where(n > 0, d / np.maximum(n, 1e-9), 0.0)
+    d = _OUTWARD[bits[v, u]]                   # each contour pixel's outward unit direction
     uv = np.stack([u + x0, v + y0], 1).astype(np.float64) + 0.5 * d
     z = dc[v, u].astype(np.float64)
     if back_depth is not None and back_inst is not None:
@@ -444,15 +447,8 @@ def all_contour_points(inst: np.ndarray, depth: np.ndarray, back_depth: np.ndarr
 def occluded_pixels(inst: np.ndarray, depth: np.ndarray) -> np.ndarray:
     """(H, W) bool: object pixels with a 4-neighbour of another object that is nearer (smaller
     depth) -- where a nearer object cuts the object's silhouette."""
-    h, w = inst.shape
-    pad_i = np.pad(inst, 1, constant_values=0)
-    pad_d = np.pad(depth, 1, constant_values=0)
-    out = np.zeros((h, w), bool)
-    for dv, du in _N4:
-        ni = pad_i[1 + dv:1 + dv + h, 1 + du:1 + du + w]
-        nd = pad_d[1 + dv:1 + dv + h, 1 + du:1 + du + w]
-        out |= (inst > 0) & (ni > 0) & (ni != inst) & (nd < depth)
-    return out
+    d = np.ascontiguousarray(depth)
+    return contour_bits(np.ascontiguousarray(inst), d, d.dtype.type(0), False, True)[1]
 
 
 def junction_mask(inst: np.ndarray, occluded: np.ndarray, radius_px: float) -> np.ndarray:
@@ -465,20 +461,10 @@ def junction_mask(inst: np.ndarray, occluded: np.ndarray, radius_px: float) -> n
     (frames 0, 9, 21; ``bench/bench_edge_pull.py``): the large clamp, 24 % visible behind the master
     chef can, gets 2.88 of its 3.95 /deg pull about its long axis from the 15-18 free contour samples
     per frame within 3 px of such pixels (of ~150), and ends 4.3 deg off."""
-    out = np.zeros(inst.shape, bool)
-    labels = np.unique(inst[occluded])
-    if len(labels) == 0:
-        return out
-    # each object's own bounding box holds all of its occluded pixels, so the distances within it
-    # are the full image's: the transform runs on the box only
-    boxes = ndimage.find_objects(inst)
-    for lab in labels:
-        box = boxes[int(lab) - 1]
-        own = inst[box] == lab
-        far = np.where(occluded[box] & own, 0, 255).astype(np.uint8)
-        near = cv2.distanceTransform(far, cv2.DIST_L2, cv2.DIST_MASK_PRECISE) <= radius_px
-        out[box] |= near & own
-    return out
+    # one compiled pass over the occluded pixels (refine.contour_kernel), the same pixels as each
+    # object's exact distance transform to its own occluded pixels compared with the radius
+    return near_own_occluded(np.ascontiguousarray(inst), np.ascontiguousarray(occluded, dtype=bool),
+                             np.float32(radius_px))
 
 
 def contact_samples(inst: np.ndarray, depth: np.ndarray, uv: np.ndarray, normals: np.ndarray, labels: np.ndarray,
