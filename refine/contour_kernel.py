@@ -95,3 +95,52 @@ def near_own_occluded(inst: np.ndarray, occluded: np.ndarray, radius_px: np.floa
                     if np.float32(np.sqrt(np.float32(dy * dy + dx * dx))) <= radius_px:
                         out[yy, xx] = True
     return out
+
+
+@njit(cache=True, nogil=True)
+def crease_bits(normal: np.ndarray, depth: np.ndarray, cos_min, use_angle: bool, jump_rel, inst: np.ndarray,
+                use_inst: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The crease / self-occlusion edges of ``ycbvss.refine.edge.crease_edges`` in one pass: (edge
+    (H, W) bool, offset (H, W, 2) float32, depth-jump edge (H, W) bool). Between each pixel and its
+    right, then its lower neighbour (both rendered, same object when ``use_inst``): an edge where
+    the depth jumps by more than ``jump_rel`` times the nearer depth, or (``use_angle``) the
+    normals' dot product (float32, x + y + z in that order) is below ``cos_min``; it is marked on the
+    nearer pixel (the first one on a tie), offset half a pixel towards the other. Offsets are written
+    in the array form's order (per direction the first pixels', then the second pixels', the lower
+    neighbours' last), so where two edges meet at a pixel the same one wins. ``cos_min`` and
+    ``jump_rel`` come in the depths' dtype, as NumPy compares and scales with them."""
+    H, W = depth.shape
+    out = np.zeros((H, W), np.bool_)
+    jumps = np.zeros((H, W), np.bool_)
+    off = np.zeros((H, W, 2), np.float32)
+    for k in range(2):
+        dv, du = (0, 1) if k == 0 else (1, 0)
+        hh, ww = H - dv, W - du
+        for pass_b in range(2):
+            for y in range(hh):
+                for x in range(ww):
+                    d0, d1 = depth[y, x], depth[y + dv, x + du]
+                    if not (d0 > 0 and d1 > 0):
+                        continue
+                    if use_inst and inst[y, x] != inst[y + dv, x + du]:
+                        continue
+                    jump = abs(d0 - d1) > jump_rel * min(d0, d1)
+                    e = jump
+                    if use_angle and not e:
+                        dot = (normal[y, x, 0] * normal[y + dv, x + du, 0] + normal[y, x, 1] * normal[y + dv, x + du, 1]
+                               + normal[y, x, 2] * normal[y + dv, x + du, 2])
+                        e = dot < cos_min
+                    if not e:
+                        continue
+                    near0 = d0 <= d1
+                    if pass_b == 0 and near0:
+                        out[y, x] = True
+                        off[y, x, 0], off[y, x, 1] = 0.5 * du, 0.5 * dv
+                        if jump:
+                            jumps[y, x] = True
+                    elif pass_b == 1 and not near0:
+                        out[y + dv, x + du] = True
+                        off[y + dv, x + du, 0], off[y + dv, x + du, 1] = -0.5 * du, -0.5 * dv
+                        if jump:
+                            jumps[y + dv, x + du] = True
+    return out, off, jumps

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from . import srgb
-from .contour_kernel import contour_bits, near_own_occluded
+from .contour_kernel import contour_bits, crease_bits, near_own_occluded
 from .cubic_kernel import cubic_sample
 from .interior_edges import flat_at, sharp_at
 
@@ -292,31 +292,14 @@ def crease_edges(normal: np.ndarray, depth: np.ndarray, min_angle_deg: float = 2
     one (the edge lies between the pixel centres). These are the shading/crease edges a photo
     shows even on textureless objects (box edges, a mug's rim). ``with_jumps``: also return the
     (H, W) bool mask of the edges that are depth jumps (self-occlusion rims), not folds."""
-    H, W = depth.shape
-    out = np.zeros((H, W), bool)
-    jumps = np.zeros((H, W), bool)
-    off = np.zeros((H, W, 2), np.float32)
-    c = np.cos(np.radians(min_angle_deg))
-    for dv, du in ((0, 1), (1, 0)):
-        n0, n1 = normal[: H - dv, : W - du], normal[dv:, du:]
-        d0, d1 = depth[: H - dv, : W - du], depth[dv:, du:]
-        both = (d0 > 0) & (d1 > 0)
-        if inst is not None:     # only within one object (between objects it is a contour, not a crease)
-            both &= inst[: H - dv, : W - du] == inst[dv:, du:]
-        jump = np.abs(d0 - d1) > depth_jump_rel * np.minimum(d0, d1)
-        if min_angle_deg < 180.0:   # cos of the normal turn, channel sum written out (same order, same bits, ~10x faster)
-            e = both & (jump | ((n0[..., 0] * n1[..., 0] + n0[..., 1] * n1[..., 1] + n0[..., 2] * n1[..., 2]) < c))
-        else:
-            e = both & jump
-        near0 = d0 <= d1
-        a, b = e & near0, e & ~near0
-        out[: H - dv, : W - du] |= a
-        out[dv:, du:] |= b
-        off[: H - dv, : W - du][a] = (0.5 * du, 0.5 * dv)
-        off[dv:, du:][b] = (-0.5 * du, -0.5 * dv)
-        if with_jumps:
-            jumps[: H - dv, : W - du] |= a & jump
-            jumps[dv:, du:] |= b & jump
+    # the pixel rules in one compiled pass (refine.contour_kernel): the same edges, offsets and
+    # jumps as the array form (per direction, the two neighbours' masks; float32 where depth is)
+    d = np.ascontiguousarray(depth)
+    ft = d.dtype.type
+    nrm = np.ascontiguousarray(normal) if min_angle_deg < 180.0 else np.zeros((1, 1, 3), d.dtype)
+    lab = np.ascontiguousarray(inst) if inst is not None else np.zeros((1, 1), np.int32)
+    out, off, jumps = crease_bits(nrm, d, nrm.dtype.type(np.cos(np.radians(min_angle_deg))), min_angle_deg < 180.0,
+                                  ft(depth_jump_rel), lab, inst is not None)
     return (out, off, jumps) if with_jumps else (out, off)
 
 

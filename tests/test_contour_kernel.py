@@ -150,3 +150,51 @@ def test_blur_search_matches_array_form(sigma_px: float) -> None:
             assert np.array_equal(got, _reference_minimum_along(field, uv[sel], nrm, half_px, step_px))
             n_moved += int(np.count_nonzero(got))
     assert n_moved > 500
+
+
+def _reference_creases(normal, depth, min_angle_deg=25.0, depth_jump_rel=0.03, inst=None):
+    """crease_edges' array form (with the depth-jump mask)."""
+    H, W = depth.shape
+    out, jumps = np.zeros((H, W), bool), np.zeros((H, W), bool)
+    off = np.zeros((H, W, 2), np.float32)
+    c = np.cos(np.radians(min_angle_deg))
+    for dv, du in ((0, 1), (1, 0)):
+        n0, n1 = normal[: H - dv, : W - du], normal[dv:, du:]
+        d0, d1 = depth[: H - dv, : W - du], depth[dv:, du:]
+        both = (d0 > 0) & (d1 > 0)
+        if inst is not None:
+            both &= inst[: H - dv, : W - du] == inst[dv:, du:]
+        jump = np.abs(d0 - d1) > depth_jump_rel * np.minimum(d0, d1)
+        if min_angle_deg < 180.0:
+            e = both & (jump | ((n0[..., 0] * n1[..., 0] + n0[..., 1] * n1[..., 1] + n0[..., 2] * n1[..., 2]) < c))
+        else:
+            e = both & jump
+        near0 = d0 <= d1
+        a, b = e & near0, e & ~near0
+        out[: H - dv, : W - du] |= a
+        out[dv:, du:] |= b
+        off[: H - dv, : W - du][a] = (0.5 * du, 0.5 * dv)
+        off[dv:, du:][b] = (-0.5 * du, -0.5 * dv)
+        jumps[: H - dv, : W - du] |= a & jump
+        jumps[dv:, du:] |= b & jump
+    return out, off, jumps
+
+
+@pytest.mark.parametrize("min_angle_deg", [10.0, 25.0, 180.0])
+def test_creases_match_array_form(min_angle_deg: float) -> None:
+    """Folds (random normals, some turning more than the angle) and depth jumps inside objects."""
+    from ycbvss.refine.edge import crease_edges
+
+    rng = np.random.default_rng(13)
+    n_edges = 0
+    for _ in range(10):
+        inst, depth = _scene(rng)
+        depth = depth * np.where(rng.random(depth.shape) < 0.05, np.float32(1.05), np.float32(1.0)).astype(np.float32)
+        nrm = rng.normal(0, 0.3, size=depth.shape + (3,)).astype(np.float32) + np.float32([0, 0, -1])
+        nrm /= np.linalg.norm(nrm, axis=2, keepdims=True)
+        for lab in (None, inst):
+            got = crease_edges(nrm, depth, min_angle_deg, inst=lab, with_jumps=True)
+            ref = _reference_creases(nrm, depth, min_angle_deg, inst=lab)
+            assert all(np.array_equal(a, b) for a, b in zip(got, ref))
+            n_edges += int(ref[0].sum())
+    assert n_edges > 500
