@@ -17,6 +17,7 @@ part of a row r is P x r (see :func:`_se3_jac`).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from ..geometry.se3 import inv_T
 
@@ -50,16 +51,24 @@ def project_jac(K: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     return uv, J, valid
 
 
-def _se3_jac(M: np.ndarray, P: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """M @ [I, -[P]x] for M (N, 2, 3) and points P (N, 3), written into ``out`` (N, 2, 6).
+@njit(cache=True, nogil=True)
+def _se3_jac_kernel(M: np.ndarray, P: np.ndarray, out: np.ndarray) -> None:
+    for n in range(M.shape[0]):
+        p0, p1, p2 = P[n, 0], P[n, 1], P[n, 2]
+        for r in range(M.shape[1]):
+            r0, r1, r2 = M[n, r, 0], M[n, r, 1], M[n, r, 2]
+            out[n, r, 0], out[n, r, 1], out[n, r, 2] = r0, r1, r2
+            out[n, r, 3] = p1 * r2 - p2 * r1
+            out[n, r, 4] = p2 * r0 - p0 * r2
+            out[n, r, 5] = p0 * r1 - p1 * r0
 
-    Row r of M times -[P]x is P x r (the cross product), so no (N, 3, 6) intermediate is built."""
-    out[:, :, :3] = M
-    P0, P1, P2 = P[:, 0, None], P[:, 1, None], P[:, 2, None]
-    r0, r1, r2 = M[:, :, 0], M[:, :, 1], M[:, :, 2]
-    out[:, :, 3] = P1 * r2 - P2 * r1
-    out[:, :, 4] = P2 * r0 - P0 * r2
-    out[:, :, 5] = P0 * r1 - P1 * r0
+
+def _se3_jac(M: np.ndarray, P: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """M @ [I, -[P]x] for M (N, R, 3) and points P (N, 3), written into ``out`` (N, R, 6).
+
+    Row r of M times -[P]x is P x r (the cross product), so no (N, 3, 6) intermediate is built;
+    one compiled pass (the products and differences of the array form, so the same numbers)."""
+    _se3_jac_kernel(np.asarray(M, dtype=np.float64), np.asarray(P, dtype=np.float64), out)
     return out
 
 

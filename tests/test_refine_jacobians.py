@@ -95,3 +95,26 @@ def test_uniform_image_gives_flat_edge_field():
     f = edge_field(np.full((40, 50, 3), 128, np.uint8), 1.0)
     assert isinstance(f, EdgeField)
     assert float(np.abs(f.E - 1.0).max()) == 0.0 and float(np.abs(f.data[..., 1:]).max()) == 0.0
+
+
+def test_se3_jac_kernel_matches_array_form():
+    """The compiled M @ [I, -[P]x] gives the array form's numbers exactly, and equals the explicit
+    product with the skew matrix to rounding."""
+    from ycbvss.refine.jacobians import _se3_jac
+
+    rng = np.random.default_rng(4)
+    for rows in (1, 2):
+        M = rng.normal(size=(500, rows, 3))
+        P = rng.normal(0, 300, size=(500, 3))
+        ref = np.empty((500, rows, 6))
+        ref[:, :, :3] = M
+        P0, P1, P2 = P[:, 0, None], P[:, 1, None], P[:, 2, None]
+        r0, r1, r2 = M[:, :, 0], M[:, :, 1], M[:, :, 2]
+        ref[:, :, 3], ref[:, :, 4], ref[:, :, 5] = P1 * r2 - P2 * r1, P2 * r0 - P0 * r2, P0 * r1 - P1 * r0
+        got = _se3_jac(M, P, np.empty((500, rows, 6)))
+        assert np.array_equal(got, ref)
+        skew = np.zeros((500, 3, 3))
+        skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -P[:, 2], P[:, 1], -P[:, 0]
+        skew -= np.swapaxes(skew, 1, 2)
+        full = np.concatenate([M, -M @ skew], axis=2)
+        assert np.abs(got - full).max() < 1e-9 * np.abs(full).max()
