@@ -325,45 +325,45 @@ class _Stage:
 
     def _temporal_term(self, renders: dict) -> TemporalTerm:
         """beta f_t: for each temporal pair (k, i), camera-k points (mm, through the template depth)
-        matched into view i by one cached forward/backward dense flow pair; cameras only."""
+        matched into view i by one cached forward/backward dense flow pair; cameras only. The renders
+        are made here (the GL thread), in the pairs' order; each new flow pair and then each pair's
+        matching run as jobs on the view pool (:func:`_pair_flows`, :func:`_pair_matches`), whose
+        results are taken in the pairs' order: the same flows and matches as one after the other."""
         pb, opt = self.pb, self.opt
         t0 = time.perf_counter()
-        groups = []
+        flow_jobs = {}                     # key -> (Future of the flow pair, box), in the pairs' order
         for (k, i) in self.pairs:          # points of view k matched into view i
             if k not in renders:
                 renders[k] = self.render(k)
             vr = renders[k]
             key = (min(k, i), max(k, i))
-            if key not in self._flows:        # one forward/backward flow pair serves both directions
+            if key not in self._flows and key not in flow_jobs:   # one flow pair serves both directions
                 prior = self._flow_prior()
                 if prior and i not in renders:
                     renders[i] = self.render(i)
                 both = (vr.instance > 0) | ((renders[i].instance > 0) if i in renders else False)
                 box = _bbox(both, 2 * opt.flow_margin_px)
-                y0, y1, x0, x1 = box
-                a = normalize_for_flow(pb.views[key[0]].image[y0:y1, x0:x1])
-                b = normalize_for_flow(pb.views[key[1]].image[y0:y1, x0:x1])
-                init_ab = init_ba = None
+                pred = None
                 if prior:                  # start from the motion the current estimate predicts
                     p, q = key
-                    init_ab = predicted_flow(renders[p].depth_mm, pb.views[p].K, pb.views[q].K,
-                                             relative_motion(pb.T_c[p], pb.T_c[q]), box)
-                    init_ba = predicted_flow(renders[q].depth_mm, pb.views[q].K, pb.views[p].K,
-                                             relative_motion(pb.T_c[q], pb.T_c[p]), box)
-                if init_ab is None:
-                    self._flows[key] = (dense_flow_pair(a, b, opt.flow), box)
-                elif prior == "residual":
-                    self._flows[key] = (residual_flow_pair(a, b, opt.flow, init_ab, init_ba), box)
-                else:
-                    self._flows[key] = (dense_flow_pair(a, b, opt.flow, init_ab, init_ba), box)
-            (fab, fba), (y0, y1, x0, x1) = self._flows[key]
+                    pred = (renders[p].depth_mm, pb.views[p].K, pb.views[q].K, relative_motion(pb.T_c[p], pb.T_c[q]),
+                            renders[q].depth_mm, relative_motion(pb.T_c[q], pb.T_c[p]))
+                flow_jobs[key] = (_view_pool().submit(_pair_flows, pb.views[key[0]].image, pb.views[key[1]].image, box,
+                                                      opt.flow, prior, pred), box)
+        for key, (job, box) in flow_jobs.items():
+            self._flows[key] = (job.result(), box)
+        match_jobs = []
+        for (k, i) in self.pairs:
+            vr = renders[k]
+            key = (min(k, i), max(k, i))
+            (fab, fba), box = self._flows[key]
             flows = (fab, fba) if k == key[0] else (fba, fab)
-            m = np.zeros(vr.instance.shape, bool)
-            for j in vr.obj_index:
-                m |= object_mask(vr, j, opt.match_erode_px)
-            (xs, xd), = flow_matches(None, None, [m[y0:y1, x0:x1]], opt.flow, flows=flows,
-                                     corner_image=pb.views[k].image[y0:y1, x0:x1],
-                                     corner_me=self.me_image(k)[y0:y1, x0:x1], dst_me=self.me_image(i)[y0:y1, x0:x1])
+            match_jobs.append((k, i, vr, box, _view_pool().submit(
+                _pair_matches, vr, opt.match_erode_px, box, flows, opt.flow, pb.views[k].image, self.me_image(k),
+                self.me_image(i))))
+        groups = []
+        for k, i, vr, (y0, y1, x0, x1), job in match_jobs:
+            xs, xd = job.result()
             xs, xd = xs + (x0, y0), xd + (x0, y0)
             if len(xs) == 0:
                 continue
@@ -393,8 +393,9 @@ class _Stage:
             if self._table_span is None:      # chosen once, from the estimate at the first finest level
                 self._table_span = span_pairs(pb.T_c[:, :3, :3], self.pairs, opt.table_span_deg)
             pairs += self._table_span
+        jobs = {}        # the pairs still to measure: renders and the plane here, matching on the view pool
         for (k, i) in pairs:
-            if (k, i) not in self._table_rot:
+            if (k, i) not in self._table_rot and (k, i) not in jobs:
                 for v in (k, i):
                     if v not in renders:
                         renders[v] = self.render(v)
@@ -405,15 +406,18 @@ class _Stage:
                     plane = (support_plane(pts, centres) if pts else None) or False
                 H_pred = predicted_homography(pb.views[k].K, pb.views[i].K, pb.T_c[k], pb.T_c[i], plane[0],
                                               plane[1]) if plane else None
-                xs, xd = table_matches(pb.views[k].image, pb.views[i].image, renders[k].instance > 0,
-                                       renders[i].instance > 0, opt.table_points, H_pred=H_pred)
                 n_k = pb.T_c[k][:3, :3] @ plane[0] if plane else None
                 R_guess = pb.T_c[i][:3, :3] @ pb.T_c[k][:3, :3].T
-                m = table_rotation(xs, xd, pb.views[k].K, pb.views[i].K, R_guess, n_k, with_normal=True)
-                W = whitening(m[1]) if m is not None else None
-                self._table_rot[(k, i)] = TableRotation(i, k, m[0], W) if W is not None else None
-                if W is not None:
-                    self._table_normals[(k, i)] = (k, m[4], m[5])
+                jobs[(k, i)] = _view_pool().submit(
+                    _table_pair_rotation, pb.views[k].image, pb.views[i].image, renders[k].instance > 0,
+                    renders[i].instance > 0, opt.table_points, H_pred, pb.views[k].K, pb.views[i].K, R_guess, n_k)
+        for (k, i), job in jobs.items():       # in the pairs' order, as one after the other
+            m = job.result()
+            W = whitening(m[1]) if m is not None else None
+            self._table_rot[(k, i)] = TableRotation(i, k, m[0], W) if W is not None else None
+            if W is not None:
+                self._table_normals[(k, i)] = (k, m[4], m[5])
+        for (k, i) in pairs:
             if self._table_rot[(k, i)] is not None:
                 rots.append(self._table_rot[(k, i)])
         return TableRotationTerm(rots, weight=opt.table_weight)
@@ -724,6 +728,50 @@ def _ridge_levels(object_ridge: bool | str, group: str, table_flow: bool = False
     if object_ridge == "finest" or (object_ridge == "by_baseline" and (group == "wide" or table_flow)):
         return "finest"
     return "none"
+
+
+def _pair_flows(img_a: np.ndarray, img_b: np.ndarray, box: tuple[int, int, int, int], flow: FlowOptions,
+                prior: bool | str, pred: tuple | None) -> tuple[np.ndarray, np.ndarray]:
+    """f_t's forward and backward dense flow between two views' images in ``box`` (y0, y1, x0, x1),
+    contrast-normalised; with ``pred`` = (depth_a, K_a, K_b, motion a->b, depth_b, motion b->a) started
+    from the flows that motion predicts (``prior`` "residual": Farneback on the residual only, see
+    :func:`ycbvss.refine.matching.residual_flow_pair`). A view-pool job of :meth:`_Stage._temporal_term`."""
+    y0, y1, x0, x1 = box
+    a = normalize_for_flow(img_a[y0:y1, x0:x1])
+    b = normalize_for_flow(img_b[y0:y1, x0:x1])
+    init_ab = init_ba = None
+    if prior and pred is not None:
+        depth_a, K_a, K_b, m_ab, depth_b, m_ba = pred
+        init_ab = predicted_flow(depth_a, K_a, K_b, m_ab, box)
+        init_ba = predicted_flow(depth_b, K_b, K_a, m_ba, box)
+    if init_ab is None:
+        return dense_flow_pair(a, b, flow)
+    if prior == "residual":
+        return residual_flow_pair(a, b, flow, init_ab, init_ba)
+    return dense_flow_pair(a, b, flow, init_ab, init_ba)
+
+
+def _pair_matches(vr: ViewRender, erode_px: int, box: tuple[int, int, int, int], flows: tuple[np.ndarray, np.ndarray],
+                  flow: FlowOptions, image_k: np.ndarray, me_k: np.ndarray, me_i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """f_t's matches of view k (render ``vr``, its objects eroded by ``erode_px``) into view i along
+    ``flows`` (k -> i, i -> k) in ``box``: crop coordinates. A view-pool job of :meth:`_Stage._temporal_term`."""
+    y0, y1, x0, x1 = box
+    m = np.zeros(vr.instance.shape, bool)
+    for j in vr.obj_index:
+        m |= object_mask(vr, j, erode_px)
+    (xs, xd), = flow_matches(None, None, [m[y0:y1, x0:x1]], flow, flows=flows, corner_image=image_k[y0:y1, x0:x1],
+                             corner_me=me_k[y0:y1, x0:x1], dst_me=me_i[y0:y1, x0:x1])
+    return xs, xd
+
+
+def _table_pair_rotation(img_k: np.ndarray, img_i: np.ndarray, objects_k: np.ndarray, objects_i: np.ndarray,
+                         n_points: int, H_pred: np.ndarray | None, K_k: np.ndarray, K_i: np.ndarray,
+                         R_guess: np.ndarray, n_k: np.ndarray | None):
+    """The table's relative rotation of one view pair: :func:`refine.table.table_matches` (guided by
+    ``H_pred``) then :func:`refine.table.table_rotation` (with the normal). A view-pool job of
+    :meth:`_Stage._table_rotation_term`."""
+    xs, xd = table_matches(img_k, img_i, objects_k, objects_i, n_points, H_pred=H_pred)
+    return table_rotation(xs, xd, K_k, K_i, R_guess, n_k, with_normal=True)
 
 
 def _lit_colour(vr: ViewRender, image: np.ndarray, light: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
