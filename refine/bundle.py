@@ -672,8 +672,9 @@ class _Stage:
             if self.ridge_finest:     # the point-motion ridge at the finest blur level only
                 pb.obj_moments = self.moments if li == len(sigmas) - 1 else None
             t0 = time.perf_counter()
-            fields = {i: edge_field(pb.views[i].image, sigma, opt.edge_norm_percentile, opt.edge_interp,
-                                  opt.edge_colour, opt.edge_linear) for i in self.term_views}
+            jobs = {i: _view_pool().submit(edge_field, pb.views[i].image, sigma, opt.edge_norm_percentile,
+                                           opt.edge_interp, opt.edge_colour, opt.edge_linear) for i in self.term_views}
+            fields = {i: job.result() for i, job in jobs.items()}     # the views' fields on the view pool
             self._t("edge_field_s", time.perf_counter() - t0)
             self._light.clear()
             if li > 0 and opt.flow_prior and (opt.flow_prior_levels == "all" or self.at_finest):
