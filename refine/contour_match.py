@@ -78,17 +78,16 @@ def _grid_minimum(field, uv: np.ndarray, n: np.ndarray, t0: np.ndarray, s: np.nd
     return np.argmin(E, axis=1), E
 
 
-def _minimum_along(field, uv: np.ndarray, n: np.ndarray, half_px: float, step_px: float) -> np.ndarray:
-    """Signed offsets t (N,) in [-half_px, half_px] of the minimum of E along uv + t n: coarse grid
-    of ``step_px``, a five times finer grid around its minimum, a parabola through the fine minimum
-    and its two neighbours."""
-    coarse = np.arange(-half_px, half_px + 1e-9, step_px)
+def _search_grids(half_px: float, step_px: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """The coarse offsets (step ``step_px`` over [-half_px, half_px]), the fine ones (a fifth of
+    the step, -5..5) and the fine step of :func:`_minimum_along`."""
     fine_step = step_px / 5.0
-    fine = np.arange(-5, 6) * fine_step
-    if field.interp == "cubic":      # the same search point by point, compiled (refine.cubic_kernel)
-        H, W = field.shape
-        return minimum_along(field.E_padded, H, W, np.ascontiguousarray(uv, dtype=np.float64),
-                             np.ascontiguousarray(n, dtype=np.float64), coarse, fine, fine_step, half_px)
+    return np.arange(-half_px, half_px + 1e-9, step_px), np.arange(-5, 6) * fine_step, fine_step
+
+
+def _minimum_along_array(field, uv: np.ndarray, n: np.ndarray, half_px: float, step_px: float) -> np.ndarray:
+    """:func:`_minimum_along` as array operations, for any interpolation of ``field``."""
+    coarse, fine, fine_step = _search_grids(half_px, step_px)
     k, _ = _grid_minimum(field, uv, n, np.zeros(len(uv)), coarse)
     k2, E = _grid_minimum(field, uv, n, coarse[k], fine)
     k2 = np.clip(k2, 1, len(fine) - 2)
@@ -97,6 +96,19 @@ def _minimum_along(field, uv: np.ndarray, n: np.ndarray, half_px: float, step_px
     den = e0 - 2.0 * e1 + e2
     frac = np.where(den > 1e-12, 0.5 * (e0 - e2) / np.where(den > 1e-12, den, 1.0), 0.0)
     return np.clip(coarse[k] + fine[k2] + np.clip(frac, -1.0, 1.0) * fine_step, -half_px, half_px)
+
+
+def _minimum_along(field, uv: np.ndarray, n: np.ndarray, half_px: float, step_px: float) -> np.ndarray:
+    """Signed offsets t (N,) in [-half_px, half_px] of the minimum of E along uv + t n: coarse grid
+    of ``step_px``, a five times finer grid around its minimum, a parabola through the fine minimum
+    and its two neighbours. A bicubic field is searched point by point by the compiled
+    :func:`ycbvss.refine.cubic_kernel.minimum_along` (the same numbers as the array form)."""
+    if field.interp != "cubic":
+        return _minimum_along_array(field, uv, n, half_px, step_px)
+    coarse, fine, fine_step = _search_grids(half_px, step_px)
+    H, W = field.shape
+    return minimum_along(field.E_padded, H, W, np.ascontiguousarray(uv, dtype=np.float64),
+                         np.ascontiguousarray(n, dtype=np.float64), coarse, fine, fine_step, half_px)
 
 
 def match_contour_to_blur(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, sigma_px: float) -> np.ndarray:

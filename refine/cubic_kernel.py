@@ -68,6 +68,26 @@ def cubic_sample(Ep: np.ndarray, u: np.ndarray, v: np.ndarray, with_grad: bool, 
     return val, grad, hess
 
 
+@njit(cache=True, inline="always")
+def _value_at(Ep: np.ndarray, height: int, width: int, u: float, v: float, wu: np.ndarray, dwu: np.ndarray,
+              wv: np.ndarray, dwv: np.ndarray) -> float:
+    """E at (u, v) as ``edge.sample_E`` reads it: the Catmull-Rom value (the tap sums of
+    :func:`cubic_sample`, in the same order) inside [0, W-1] x [0, H-1], 1 outside or not finite."""
+    if not (np.isfinite(u) and np.isfinite(v) and u >= 0 and v >= 0 and u <= width - 1 and v <= height - 1):
+        return 1.0
+    fu, fv = np.floor(u), np.floor(v)
+    iu, iv = int(fu), int(fv)
+    _weights(u - fu, wu, dwu)
+    _weights(v - fv, wv, dwv)
+    s = 0.0
+    for r in range(4):
+        row = 0.0
+        for c in range(4):
+            row += Ep[iv + r, iu + c] * wu[c]
+        s += row * wv[r]
+    return s
+
+
 @njit(cache=True, nogil=True)
 def edge_cost_sum(Ep: np.ndarray, height: int, width: int, K: np.ndarray, T: np.ndarray, X: np.ndarray,
                   min_z_mm: float) -> float:
@@ -89,41 +109,8 @@ def edge_cost_sum(Ep: np.ndarray, height: int, width: int, K: np.ndarray, T: np.
         x, y = Yx / Z, Yy / Z
         u = K[0, 0] * x + K[0, 1] * y + K[0, 2]
         v = K[1, 1] * y + K[1, 2]
-        if not (np.isfinite(u) and np.isfinite(v) and u >= 0 and v >= 0 and u <= width - 1 and v <= height - 1):
-            total += 1.0
-            continue
-        fu, fv = np.floor(u), np.floor(v)
-        iu, iv = int(fu), int(fv)
-        _weights(u - fu, wu, dwu)
-        _weights(v - fv, wv, dwv)
-        s = 0.0
-        for r in range(4):
-            row = 0.0
-            for c in range(4):
-                row += Ep[iv + r, iu + c] * wu[c]
-            s += row * wv[r]
-        total += s
+        total += _value_at(Ep, height, width, u, v, wu, dwu, wv, dwv)
     return total
-
-
-@njit(cache=True, inline="always")
-def _value_at(Ep: np.ndarray, height: int, width: int, u: float, v: float, wu: np.ndarray, dwu: np.ndarray,
-              wv: np.ndarray, dwv: np.ndarray) -> float:
-    """E at (u, v) as ``edge.sample_E`` reads it: the Catmull-Rom value (the tap sums of
-    :func:`cubic_sample`, in the same order) inside [0, W-1] x [0, H-1], 1 outside or not finite."""
-    if not (np.isfinite(u) and np.isfinite(v) and u >= 0 and v >= 0 and u <= width - 1 and v <= height - 1):
-        return 1.0
-    fu, fv = np.floor(u), np.floor(v)
-    iu, iv = int(fu), int(fv)
-    _weights(u - fu, wu, dwu)
-    _weights(v - fv, wv, dwv)
-    s = 0.0
-    for r in range(4):
-        row = 0.0
-        for c in range(4):
-            row += Ep[iv + r, iu + c] * wu[c]
-        s += row * wv[r]
-    return s
 
 
 @njit(cache=True, nogil=True)

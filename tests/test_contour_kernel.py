@@ -110,29 +110,12 @@ def test_contour_points_unchanged(contact_mm: float) -> None:
             assert np.array_equal(a, b)
 
 
-def _reference_minimum_along(field, uv, n, half_px, step_px):
-    """contour_match._minimum_along's array form: a coarse grid, a five times finer one about its
-    minimum, a parabola."""
-    from ycbvss.refine.contour_match import _grid_minimum
-
-    coarse = np.arange(-half_px, half_px + 1e-9, step_px)
-    k, _ = _grid_minimum(field, uv, n, np.zeros(len(uv)), coarse)
-    fine_step = step_px / 5.0
-    fine = np.arange(-5, 6) * fine_step
-    k2, E = _grid_minimum(field, uv, n, coarse[k], fine)
-    k2 = np.clip(k2, 1, len(fine) - 2)
-    r = np.arange(len(uv))
-    e0, e1, e2 = E[r, k2 - 1], E[r, k2], E[r, k2 + 1]
-    den = e0 - 2.0 * e1 + e2
-    frac = np.where(den > 1e-12, 0.5 * (e0 - e2) / np.where(den > 1e-12, den, 1.0), 0.0)
-    return np.clip(coarse[k] + fine[k2] + np.clip(frac, -1.0, 1.0) * fine_step, -half_px, half_px)
-
-
 @pytest.mark.parametrize("sigma_px", [1.0, 2.0, 4.0, 8.0])
 def test_blur_search_matches_array_form(sigma_px: float) -> None:
     """The compiled search of the blur-matched contour (cubic_kernel.minimum_along) returns the
     array form's offsets exactly, on silhouettes whose samples reach the image border."""
-    from ycbvss.refine.contour_match import _blur_sobel, _edge_cost, _minimum_along, _outward_normals, search_px
+    from ycbvss.refine.contour_match import (_blur_sobel, _edge_cost, _minimum_along, _minimum_along_array,
+                                             _outward_normals, search_px)
 
     rng = np.random.default_rng(3)
     half_px, step_px = search_px(sigma_px)
@@ -147,7 +130,7 @@ def test_blur_search_matches_array_form(sigma_px: float) -> None:
             nrm = _outward_normals(mask_f, sigma_px, uv[sel], sobel)
             field = _edge_cost(mask_f, sigma_px, sobel)
             got = _minimum_along(field, uv[sel], nrm, half_px, step_px)
-            assert np.array_equal(got, _reference_minimum_along(field, uv[sel], nrm, half_px, step_px))
+            assert np.array_equal(got, _minimum_along_array(field, uv[sel], nrm, half_px, step_px))
             n_moved += int(np.count_nonzero(got))
     assert n_moved > 500
 
