@@ -113,34 +113,39 @@ def crease_bits(normal: np.ndarray, depth: np.ndarray, cos_min, use_angle: bool,
     out = np.zeros((H, W), np.bool_)
     jumps = np.zeros((H, W), np.bool_)
     off = np.zeros((H, W, 2), np.float32)
+    second = np.zeros((H, W), np.uint8)     # per direction: 1 = edge marked on the second pixel, 2 = and a jump
     for k in range(2):
         dv, du = (0, 1) if k == 0 else (1, 0)
         hh, ww = H - dv, W - du
-        for pass_b in range(2):
-            for y in range(hh):
-                for x in range(ww):
-                    d0, d1 = depth[y, x], depth[y + dv, x + du]
-                    if not (d0 > 0 and d1 > 0):
-                        continue
-                    if use_inst and inst[y, x] != inst[y + dv, x + du]:
-                        continue
-                    jump = abs(d0 - d1) > jump_rel * min(d0, d1)
-                    e = jump
-                    if use_angle and not e:
-                        dot = (normal[y, x, 0] * normal[y + dv, x + du, 0] + normal[y, x, 1] * normal[y + dv, x + du, 1]
-                               + normal[y, x, 2] * normal[y + dv, x + du, 2])
-                        e = dot < cos_min
-                    if not e:
-                        continue
-                    near0 = d0 <= d1
-                    if pass_b == 0 and near0:
-                        out[y, x] = True
-                        off[y, x, 0], off[y, x, 1] = 0.5 * du, 0.5 * dv
-                        if jump:
-                            jumps[y, x] = True
-                    elif pass_b == 1 and not near0:
-                        out[y + dv, x + du] = True
-                        off[y + dv, x + du, 0], off[y + dv, x + du, 1] = -0.5 * du, -0.5 * dv
-                        if jump:
-                            jumps[y + dv, x + du] = True
+        for y in range(hh):                 # the rule once per pair; the first pixels' marks written now
+            for x in range(ww):
+                second[y, x] = 0
+                d0, d1 = depth[y, x], depth[y + dv, x + du]
+                if not (d0 > 0 and d1 > 0):
+                    continue
+                if use_inst and inst[y, x] != inst[y + dv, x + du]:
+                    continue
+                jump = abs(d0 - d1) > jump_rel * min(d0, d1)
+                e = jump
+                if use_angle and not e:
+                    dot = (normal[y, x, 0] * normal[y + dv, x + du, 0] + normal[y, x, 1] * normal[y + dv, x + du, 1]
+                           + normal[y, x, 2] * normal[y + dv, x + du, 2])
+                    e = dot < cos_min
+                if not e:
+                    continue
+                if d0 <= d1:
+                    out[y, x] = True
+                    off[y, x, 0], off[y, x, 1] = 0.5 * du, 0.5 * dv
+                    if jump:
+                        jumps[y, x] = True
+                else:
+                    second[y, x] = 2 if jump else 1
+        for y in range(hh):                 # then the second pixels' (their offsets win where both mark)
+            for x in range(ww):
+                if second[y, x] == 0:
+                    continue
+                out[y + dv, x + du] = True
+                off[y + dv, x + du, 0], off[y + dv, x + du, 1] = -0.5 * du, -0.5 * dv
+                if second[y, x] == 2:
+                    jumps[y + dv, x + du] = True
     return out, off, jumps

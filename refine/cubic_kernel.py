@@ -150,89 +150,15 @@ def minimum_along(Ep: np.ndarray, height: int, width: int, uv: np.ndarray, n: np
     return out
 
 
-PAIRWISE_EXACT_MAX = 20000   # tests/test_edge_cost_kernel.py: equal to ndarray.sum() up to this length
-
-
-@njit(cache=True, inline="always")
-def _pairwise_leaf(a: np.ndarray, lo: int, n: int) -> float:
-    """NumPy's pairwise sum of a block of at most 128 (fewer than 8: one after the other; else eight
-    interleaved partial sums combined as a tree, then the rest)."""
-    if n < 8:
-        s = 0.0
-        for i in range(lo, lo + n):
-            s += a[i]
-        return s
-    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    m = n - n % 8
-    for i in range(lo + 8, lo + m, 8):
-        r0 += a[i]
-        r1 += a[i + 1]
-        r2 += a[i + 2]
-        r3 += a[i + 3]
-        r4 += a[i + 4]
-        r5 += a[i + 5]
-        r6 += a[i + 6]
-        r7 += a[i + 7]
-    s = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    for i in range(lo + m, lo + n):
-        s += a[i]
-    return s
-
-
-@njit(cache=True)
-def _pairwise_sum(a: np.ndarray, lo: int, n: int) -> float:
-    """sum of a[lo:lo + n] in NumPy's pairwise order for a contiguous float64 array: blocks of up to
-    128 by :func:`_pairwise_leaf`, longer runs as the sum of their halves split at a multiple of 8,
-    so a sum taken here equals ``a.sum()`` for up to :data:`PAIRWISE_EXACT_MAX` items (NumPy sums
-    much longer arrays in buffered chunks). The halving recursion runs on an explicit stack (numba's
-    cache cannot reload a recursive function)."""
-    if n <= 128:
-        return _pairwise_leaf(a, lo, n)
-    depth = 64
-    s_lo = np.empty(depth, np.int64)
-    s_n = np.empty(depth, np.int64)
-    s_stage = np.empty(depth, np.int64)     # 0: new, 1: left half pending, 2: right half pending
-    s_left = np.empty(depth)
-    sp = 0
-    s_lo[0], s_n[0], s_stage[0] = lo, n, 0
-    val = 0.0
-    while sp >= 0:
-        m = s_n[sp]
-        if s_stage[sp] == 0 and m <= 128:
-            val = _pairwise_leaf(a, s_lo[sp], m)
-            sp -= 1
-        elif s_stage[sp] == 0:
-            s_stage[sp] = 1
-            h = m // 2
-            h -= h % 8
-            s_lo[sp + 1], s_n[sp + 1], s_stage[sp + 1] = s_lo[sp], h, 0
-            sp += 1
-            continue
-        elif s_stage[sp] == 2:
-            val = s_left[sp] + val
-            sp -= 1
-        if sp < 0:
-            break
-        # hand val to the parent: its left half when it waits for that, then start its right half
-        if s_stage[sp] == 1:
-            s_left[sp] = val
-            s_stage[sp] = 2
-            h = s_n[sp] // 2
-            h -= h % 8
-            s_lo[sp + 1], s_n[sp + 1], s_stage[sp + 1] = s_lo[sp] + h, s_n[sp] - h, 0
-            sp += 1
-    return val
-
-
 @njit(cache=True, nogil=True)
-def anchored_edge_cost(Ep: np.ndarray, height: int, width: int, K: np.ndarray, Y: np.ndarray, uv0: np.ndarray,
-                       nrm: np.ndarray, ok0: np.ndarray, min_z_mm: float) -> float:
-    """f_edge's cost of one group whose samples move across their edges only (``EdgeTerm``'s
-    anchors): sum over camera points Y (N, 3) mm of E at uv0 + ((pi(Y) - uv0) . n) n, 1 where the
-    projection is invalid (``jacobians._project``'s rule), the anchor not usable (``ok0`` False)
+def anchored_edge_values(Ep: np.ndarray, height: int, width: int, K: np.ndarray, Y: np.ndarray, uv0: np.ndarray,
+                         nrm: np.ndarray, ok0: np.ndarray, min_z_mm: float) -> np.ndarray:
+    """f_edge's per-sample values (N,) of one group whose samples move across their edges only
+    (``EdgeTerm``'s anchors): for camera points Y (N, 3) mm, E at uv0 + ((pi(Y) - uv0) . n) n, 1 where
+    the projection is invalid (``jacobians._project``'s rule), the anchor not usable (``ok0`` False)
     or the point outside the image. The arithmetic of the array form (projection, the two-term dot
-    product, :func:`_value_at`) and NumPy's pairwise sum, so the cost is the same bit for bit."""
+    product, :func:`_value_at`), so the values are the same bit for bit; the caller sums them with
+    NumPy (its pairwise order)."""
     N = Y.shape[0]
     e = np.empty(N)
     wu, dwu, wv, dwv = np.empty(4), np.empty(4), np.empty(4), np.empty(4)
@@ -246,4 +172,4 @@ def anchored_edge_cost(Ep: np.ndarray, height: int, width: int, K: np.ndarray, Y
         v = K[1, 1] * y + K[1, 2]
         d = (u - uv0[p, 0]) * nrm[p, 0] + (v - uv0[p, 1]) * nrm[p, 1]
         e[p] = _value_at(Ep, height, width, uv0[p, 0] + d * nrm[p, 0], uv0[p, 1] + d * nrm[p, 1], wu, dwu, wv, dwv)
-    return _pairwise_sum(e, 0, N)
+    return e

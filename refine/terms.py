@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry.se3 import inv_T
-from .cubic_kernel import PAIRWISE_EXACT_MAX, anchored_edge_cost, edge_cost_sum
+from .cubic_kernel import anchored_edge_values, edge_cost_sum
 from .normal_kernel import as_f64
 from .edge import EdgeField, across_edge_directions, sample_E, sample_field
 from .jacobians import MIN_Z_MM, _se3_jac, object_point_jacobians, project_points, transfer_point_jacobians
@@ -174,12 +174,13 @@ class EdgeTerm:
             if self._dilated(gr):
                 tot += self._dilation_cost(pb, gi, gr)
                 continue
-            if gi in self._anchors and f.interp == "cubic" and len(gr.X) <= PAIRWISE_EXACT_MAX:   # compiled, same sum
+            if gi in self._anchors and f.interp == "cubic":     # compiled, the same values and sum
                 uv0, n, ok0 = self._anchors[gi]
                 T = pb.T_c[gr.i] @ pb.T_m[gr.j]
                 Y = np.asarray(gr.X, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]   # project_points' product
                 H, W = f.shape
-                tot += anchored_edge_cost(f.E_padded, H, W, as_f64(pb.views[gr.i].K), Y, uv0, n, ok0, MIN_Z_MM)
+                tot += float(anchored_edge_values(f.E_padded, H, W, as_f64(pb.views[gr.i].K), Y, uv0, n, ok0,
+                                                  MIN_Z_MM).sum())
                 continue
             if gi in self._anchors:
                 uv0, n, ok0 = self._anchors[gi]
