@@ -16,6 +16,8 @@ cost). The samples are split into
 - the other contour samples, split by whether their pixel lies within 3 px of where a nearer
   object cuts the silhouette (a T-junction, :func:`ycbvss.refine.edge.junction_mask`),
 - interior samples,
+- with ``--table-mm H``: the free contour samples whose surface point lies less than H mm above
+  the GT table (world z = 0 of the suite's scenes), beside the object's contact shadow,
 
 Interior samples can be taken as the refiner's ``interior_ridge_groups`` takes them (``--ridge``:
 located on the template's own edge field; ``--area F``: in the template integrated over each
@@ -40,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 CLASSES = ("contour, touching another object", "contour, another object 2-4 px out", "contour, free",
-           "contour, free, within 3 px of a T-junction", "interior")
+           "contour, free, within 3 px of a T-junction", "interior", "contour, free, near the table")
 
 
 def sample_classes(instance: np.ndarray, uv: np.ndarray, normals: np.ndarray, label: int,
@@ -134,6 +136,9 @@ def main() -> None:
     ap.add_argument("--across", action="store_true", help="count only E's slope across each edge")
     ap.add_argument("--images", default=None, help="BOP root with re-renders of the clip's frames (same GT)")
     ap.add_argument("--self", action="store_true", help="the template itself as the image (locator check)")
+    ap.add_argument("--table-mm", type=float, default=0.0,
+                    help="> 0: free contour samples whose surface point lies less than this above the GT table "
+                         "(world z = 0 of the suite's scenes) are a class of their own")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     out = Path(a.out)
@@ -181,6 +186,9 @@ def main() -> None:
             X = backproject_px(K, uv[m], dep[m]) @ Pi[:3, :3].T + Pi[:3, 3]
             pull = rotation_pull(K, T, X, centre, axis, fld, across=a.across)
             cls = np.full(m.sum(), 4) if interior else sample_classes(vr.instance, uv[m], c.n_c[m], lab, junction)
+            if a.table_mm > 0 and not interior and f.T_w2c is not None:
+                height_mm = (X @ T[:3, :3].T + T[:3, 3]) @ inv_T(f.T_w2c)[2, :3] + inv_T(f.T_w2c)[2, 3]
+                cls[(cls == 2) & (height_mm < a.table_mm)] = 5
             for k in range(len(CLASSES)):
                 per_class[k] += pull[cls == k].sum()
                 counts[k] += int((cls == k).sum())

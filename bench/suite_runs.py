@@ -91,6 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("what", choices=("run", "report"))
     ap.add_argument("--dataset", required=True, help="YCB-Video root (or BOP root) with the 21 models")
     ap.add_argument("--suite-root", required=True)
+    ap.add_argument("--suite", default="ycbv21", help="ycbv21, ycbv21-fresh (sealed test scenes 31-36) or ycbv21-ci")
     ap.add_argument("--scenes", default="1,2,3,4,5,6,7,8,9")
     ap.add_argument("--kinds", default="short,medium,long")
     ap.add_argument("--inits", default="paper")
@@ -106,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.what == "run":
         if not a.work:
             ap.error("run needs --work")
-        models, specs = build_suite(a.dataset, root, "ycbv21", scene_ids=scenes)
+        models, specs = build_suite(a.dataset, root, a.suite, scene_ids=scenes)
         runs = [Run(c, i, int(s), v) for sp in specs for c in clips_of(sp, a.kinds.split(","))
                 for i in a.inits.split(",") for s in a.seeds.split(",") for v in a.variants.split(",")]
         print(f"{len(runs)} runs", flush=True)

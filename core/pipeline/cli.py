@@ -113,7 +113,8 @@ def _register_validate(subparsers) -> None:
                    help="Cycles samples per pixel for the synthesis (default 8)")
     v.add_argument("--suite", default=None, metavar="NAME",
                    help="run the refiner's validation suite instead (ycbv21: 9 Blender scenes of the 21 YCB-V "
-                        "models, short/medium/long clips; ycbv21-ci: one short clip); --dataset gives the "
+                        "models, short/medium/long clips; ycbv21-fresh: 6 sealed test scenes, short and medium "
+                        "clips; ycbv21-ci: one short clip); --dataset gives the "
                         "YCB-V models (original or BOP root); scenes are rendered once and cached in --out")
     v.add_argument("--suite-kinds", default="short,medium,long", metavar="LIST",
                    help="clip kinds to run with --suite (default short,medium,long)")

@@ -79,7 +79,19 @@ YCBV21 = (
 )
 # a CI-sized scene: five objects (thin, small, symmetric and textureless ones), a short clip only
 YCBV21_CI = (SuiteScene(21, (13, 14, 18, 19, 21), 22, 7.0, 121),)
-SUITES = {"ycbv21": YCBV21, "ycbv21-ci": YCBV21_CI}
+# Fresh scenes (added in session 62, 2026-12-01): a sealed test set for the short and medium clips.
+# New layouts and camera paths (seeds 131-136); the objects drawn once by a fixed permutation
+# (numpy default_rng(2026)) for scenes 31-33 and once more for 34-36, so every object is in two.
+# All held out: they are refined only to report, never to choose an option or a threshold by.
+YCBV21_FRESH = (
+    SuiteScene(31, (1, 10, 12, 15, 16, 17, 20), 60, 20.0, 131, held_out=True),
+    SuiteScene(32, (2, 3, 7, 9, 13, 14, 19), 60, 20.0, 132, held_out=True),
+    SuiteScene(33, (4, 5, 6, 8, 11, 18, 21), 60, 20.0, 133, held_out=True),
+    SuiteScene(34, (1, 10, 12, 13, 15, 16, 19), 60, 20.0, 134, held_out=True),
+    SuiteScene(35, (4, 7, 9, 17, 18, 20, 21), 60, 20.0, 135, held_out=True),
+    SuiteScene(36, (2, 3, 5, 6, 8, 11, 14), 60, 20.0, 136, held_out=True),
+)
+SUITES = {"ycbv21": YCBV21, "ycbv21-ci": YCBV21_CI, "ycbv21-fresh": YCBV21_FRESH}
 HELD_OUT_SEED_MIN = 5
 SHORT = tuple(range(0, 22, 3))
 MEDIUM = tuple(range(0, 60, 2))

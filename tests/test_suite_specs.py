@@ -1,0 +1,24 @@
+"""The validation suites' scene lists hold what the issue asks of them (pure: nothing is rendered)."""
+from __future__ import annotations
+
+from collections import Counter
+
+from ycbvss.pipeline.suite import SUITES, YCBV21, YCBV21_FRESH, clips_of
+
+
+def test_ycbv21_has_every_object_in_three_scenes_with_four_to_seven_each():
+    n = Counter(o for s in YCBV21 for o in s.obj_ids)
+    assert sorted(n) == list(range(1, 22)) and min(n.values()) >= 3, n
+    assert all(4 <= len(s.obj_ids) <= 7 for s in YCBV21)
+
+
+def test_fresh_scenes_are_sealed_new_and_cover_every_object_twice():
+    n = Counter(o for s in YCBV21_FRESH for o in s.obj_ids)
+    assert sorted(n) == list(range(1, 22)) and set(n.values()) == {2}, n
+    assert all(s.held_out for s in YCBV21_FRESH)
+    # no scene id or layout seed shared with another suite: their renders and layouts are new
+    others = [s for name, specs in SUITES.items() if name != "ycbv21-fresh" for s in specs]
+    assert not {s.scene_id for s in YCBV21_FRESH} & {s.scene_id for s in others}
+    assert not {s.seed for s in YCBV21_FRESH} & {s.seed for s in others}
+    assert all(len(set(s.obj_ids)) == len(s.obj_ids) == 7 for s in YCBV21_FRESH)
+    assert all({c.kind for c in clips_of(s)} == {"short", "medium"} for s in YCBV21_FRESH)
