@@ -18,6 +18,7 @@ from ..geometry.se3 import interpolate_T, inv_T
 from ..geometry.so3 import is_rotation, log_so3, rotation_angle_deg
 from ..geometry.symmetry import symmetry_transforms
 
+from .axis_hold import AxisHoldTerm
 from .contact import ContactTerm, contact_groups, contact_surface
 from .edge import edge_field, gradient_magnitude
 from .flow_prior import predicted_flow, relative_motion
@@ -191,6 +192,10 @@ class _Stage:
                 t = self._table_contact_term()
                 if t is not None:
                     terms.append(t)
+        if opt.axis_hold and not self.at_finest and self._T_m_starts:
+            t = self._axis_hold_term()
+            if t is not None:
+                terms.append(t)
         if opt.contact_weight > 0 and len(self.pb.obj_ids) > 1:
             surfaces, points = self.contact_surfaces
             terms.append(ContactTerm(surfaces, contact_groups(self.pb, surfaces, points),
@@ -235,7 +240,8 @@ class _Stage:
         dil = ((opt.edge_dilation_k > 0.0 or opt.edge_contact_offset_k > 0.0)
                and level_sigma <= DILATION_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
         sharp = self.min_sharpness if self.at_finest else 0.0
-        kw = dict(creases=opt.edge_creases, interior_max_turn_deg=self._turn_gate(), interior_min_sharpness=sharp,
+        erode = max(2, int(np.ceil(opt.interior_erode_sigmas * level_sigma - 1e-9))) if opt.interior_erode_sigmas > 0 else 2
+        kw = dict(erode_px=erode, creases=opt.edge_creases, interior_max_turn_deg=self._turn_gate(), interior_min_sharpness=sharp,
                   fold_min_angle_deg=self.fold_angle, blur_sigma_px=blur, normals=dil,
                   contact_mm=opt.edge_contact_mm, junction_px=self.junction_px,
                   normals_contact_mm=opt.contact_offset_mm if dil and opt.edge_contact_offset_k > 0.0 else 0.0)
@@ -374,6 +380,21 @@ class _Stage:
                 groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
         self._t("temporal_matching_s", time.perf_counter() - t0)
         return TemporalTerm(groups, weight=opt.beta, rho=opt.rho)
+
+    def _axis_hold_term(self) -> AxisHoldTerm | None:
+        """``axis_hold``: each free textured object with a continuous symmetry axis (its BOP
+        ``symmetries_continuous``; not the objects evaluated modulo it) held at its turn about that
+        axis at this level's start (:mod:`refine.axis_hold`); None when there is none."""
+        pb = self.pb
+        R0s = self._T_m_starts[-1]
+        holds = []
+        for j, oid in enumerate(pb.obj_ids):
+            m = self.models[oid]
+            if m.symmetric or not m.symmetries_continuous or pb.obj_block[j] < 0 or not np.all(np.isfinite(R0s[j])):
+                continue
+            a = np.asarray(m.symmetries_continuous[0]["axis"], np.float64)
+            holds.append((j, a / np.linalg.norm(a), R0s[j][:3, :3].copy()))
+        return AxisHoldTerm(holds) if holds else None
 
     @cached_property
     def hull_points(self) -> list[np.ndarray]:
@@ -1338,6 +1359,8 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
         opt = dc_replace(opt, edge_rim_depth=group in _groups(opt.edge_rim_depth))
     if isinstance(opt.table_flow, str):          # likewise
         opt = dc_replace(opt, table_flow=group in _groups(opt.table_flow))
+    if isinstance(opt.axis_hold, str):           # likewise
+        opt = dc_replace(opt, axis_hold=group in _groups(opt.axis_hold))
     if isinstance(opt.edge_across_only, str):    # likewise
         opt = dc_replace(opt, edge_across_only=group in _groups(opt.edge_across_only))
     stats["edge_across_only"] = bool(opt.edge_across_only)
@@ -1470,6 +1493,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                    "interior_ridge_groups": opt.interior_ridge_groups}
     if isinstance(opt.edge_across_only, str):
         group_specs["edge_across_only"] = opt.edge_across_only
+    if isinstance(opt.axis_hold, str):
+        group_specs["axis_hold"] = opt.axis_hold
     if opt.interior_sharpness_bundles != "all":
         group_specs["interior_sharpness_bundles"] = opt.interior_sharpness_bundles
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):

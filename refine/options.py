@@ -189,6 +189,15 @@ class RefineOptions:
     # ends 30 deg turned about its axis (was 0.9; 18.5 at 45 deg) and short-7's banana 16.6 deg (was
     # 0.4): their rotation rests on exactly these samples (the mug's handle, the banana's ends)
     interior_max_turn_deg: float = 0.0
+    # > 0: f_edge's interior (texture and crease) samples lie at least this many times the level's
+    # blur sigma inside their object's silhouette (at least 2 px): nearer, the blurred edge field's
+    # nearest minimum is the object's own outline, which such a sample slides onto by turning the
+    # object (a rotationally symmetric one about its axis at no contour cost). 0: 2 px at every level
+    interior_erode_sigmas: float = 0.0
+    # hold each textured object with a continuous symmetry axis (cans, the large marker) at its turn
+    # about that axis at the coarse blur levels (refine.axis_hold); released at the finest level.
+    # True: every bundle; a comma-separated list of baseline groups: those scenes' bundles; False: off
+    axis_hold: bool | str = False
     # the same gate (limit in deg, 0: off) at the finest blur level only (f_edge and the coarse-move
     # check), on the keyframe bundles of the baseline groups in ``interior_turn_groups`` ("wide": wide
     # bundles; "medium": medium and wide); the coarser levels keep every sample, so the mug's and
