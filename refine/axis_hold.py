@@ -13,7 +13,8 @@ the level started from, with a stiff quadratic,
 
 ``a`` the unit symmetry axis in the model frame, ``R_0`` the orientation at the start of the level
 and ``R`` the current one (model to world). With left increments in world coordinates
-(R <- exp(w) R) d phi / d w = R a to first order, and the translation is left free.
+(R <- exp(w) R) R_0^T exp(w) R = D exp(R^T w) with D = R_0^T R, so d phi / d w = a^T J_r^-1(log D) R^T
+(J_r the right Jacobian of SO(3)); the translation is left free.
 """
 from __future__ import annotations
 
@@ -23,6 +24,20 @@ import numpy as np
 
 from ..geometry.so3 import log_so3
 from .problem import BundleProblem
+
+
+def _hat(x: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
+
+
+def right_jacobian_inv(xi: np.ndarray) -> np.ndarray:
+    """J_r^-1 (3, 3) of SO(3) at the rotation vector ``xi`` (rad): log(exp(xi) exp(d)) = xi + J_r^-1 d + O(d^2)."""
+    th = float(np.linalg.norm(xi))
+    X = _hat(xi)
+    if th < 1e-6:
+        return np.eye(3) + 0.5 * X + X @ X / 12.0
+    c = 1.0 / th ** 2 - (1.0 + np.cos(th)) / (2.0 * th * np.sin(th))
+    return np.eye(3) + 0.5 * X + c * (X @ X)
 
 
 def axis_turn_rad(R0: np.ndarray, R: np.ndarray, axis_model: np.ndarray) -> float:
@@ -48,7 +63,8 @@ class AxisHoldTerm:
         for j, a, R0 in self.groups:
             R = pb.T_m[j][:3, :3]
             if np.all(np.isfinite(R)):
-                out.append((j, axis_turn_rad(R0, R, a), R @ a))
+                xi = np.asarray(log_so3(R0.T @ R), np.float64)
+                out.append((j, float(xi @ a), R @ (right_jacobian_inv(xi).T @ a)))    # phi, d phi / d w
         return out
 
     def cost(self, pb: BundleProblem) -> float:
