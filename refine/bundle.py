@@ -1361,6 +1361,7 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
         opt = dc_replace(opt, table_flow=group in _groups(opt.table_flow))
     if isinstance(opt.axis_hold, str):           # likewise
         opt = dc_replace(opt, axis_hold=group in _groups(opt.axis_hold))
+    stats["axis_hold"] = bool(opt.axis_hold)
     if isinstance(opt.edge_across_only, str):    # likewise
         opt = dc_replace(opt, edge_across_only=group in _groups(opt.edge_across_only))
     stats["edge_across_only"] = bool(opt.edge_across_only)

@@ -196,8 +196,13 @@ class RefineOptions:
     interior_erode_sigmas: float = 0.0
     # hold each textured object with a continuous symmetry axis (cans, the large marker) at its turn
     # about that axis at the coarse blur levels (refine.axis_hold); released at the finest level.
-    # True: every bundle; a comma-separated list of baseline groups: those scenes' bundles; False: off
-    axis_hold: bool | str = False
+    # True: every bundle; a comma-separated list of baseline groups: those scenes' bundles; False: off.
+    # Default "narrow" since session 62 (bench/results/ycbv21/README.md): found on the sealed
+    # ycbv21-fresh short-35, whose marker ended 54-85 deg turned about its axis at 4 of 5 seeds
+    # (`uncertain`); on ycbv21 short 1-9, seeds 0-3 and 5-7, paired: R 0.511 -> 0.399 deg (held-out
+    # seeds 0.667 -> 0.402; the marker 3.14 -> 1.08), the other columns and objects within noise,
+    # 14 of 21 objects meeting every short target either way. Medium and long clips not measured with it
+    axis_hold: bool | str = "narrow"
     # the same gate (limit in deg, 0: off) at the finest blur level only (f_edge and the coarse-move
     # check), on the keyframe bundles of the baseline groups in ``interior_turn_groups`` ("wide": wide
     # bundles; "medium": medium and wide); the coarser levels keep every sample, so the mug's and

@@ -46,7 +46,7 @@ def _resolved(opt):
 def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
     # edge_rim_depth, table_flow and table_contact bools that stay, template_supersample 1: nothing else to resolve
     opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1,
-                        table_flow=False, table_contact=False, edge_across_only=False)
+                        table_flow=False, table_contact=False, edge_across_only=False, axis_hold=False)
     for name, got, stats in _resolved(opt):
         assert stats["bias_removal"] is (name in removed)
         if name in removed:
@@ -61,6 +61,18 @@ def test_edge_across_only_resolves_by_the_scenes_baseline_group():
     assert got == {"wide": (True, True), "medium": (True, True), "narrow": (False, False)}
     got = {name: o.edge_across_only for name, o, _ in _resolved(RefineOptions(edge_across_only="wide"))}
     assert got == {"wide": True, "medium": False, "narrow": False}
+
+
+def test_axis_hold_resolves_by_the_scenes_baseline_group():
+    got = {name: (o.axis_hold, st["axis_hold"]) for name, o, st in _resolved(RefineOptions())}
+    assert got == {"wide": (False, False), "medium": (False, False), "narrow": (True, True)}
+    got = {name: o.axis_hold for name, o, _ in _resolved(RefineOptions(axis_hold="medium,wide"))}
+    assert got == {"wide": True, "medium": True, "narrow": False}
+
+
+def test_an_unknown_axis_hold_group_is_an_error_naming_the_option():
+    with pytest.raises(YcbvssError, match="axis_hold"):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(axis_hold="nraw"))
 
 
 def test_the_default_removes_the_biases_on_medium_and_wide_scenes():
