@@ -22,18 +22,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..geometry.so3 import log_so3
+from ..geometry.so3 import hat, log_so3
 from .problem import BundleProblem
-
-
-def _hat(x: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
 
 
 def right_jacobian_inv(xi: np.ndarray) -> np.ndarray:
     """J_r^-1 (3, 3) of SO(3) at the rotation vector ``xi`` (rad): log(exp(xi) exp(d)) = xi + J_r^-1 d + O(d^2)."""
     th = float(np.linalg.norm(xi))
-    X = _hat(xi)
+    X = hat(xi)
     if th < 1e-6:
         return np.eye(3) + 0.5 * X + X @ X / 12.0
     c = 1.0 / th ** 2 - (1.0 + np.cos(th)) / (2.0 * th * np.sin(th))
