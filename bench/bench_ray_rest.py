@@ -37,7 +37,7 @@ def _mean_E(fld, uv: np.ndarray) -> float:
 
     if len(uv) == 0:
         return float("nan")
-    return float(np.mean(np.asarray(sample_field(fld, uv)[0]).reshape(len(uv), -1)[:, 0]))
+    return float(np.mean(sample_field(fld, uv)[0]))
 
 
 def ray_scan(sc, models, obj: int, dz_mm: np.ndarray, junction_px: float = 3.0) -> np.ndarray:
@@ -78,6 +78,7 @@ def ray_scan(sc, models, obj: int, dz_mm: np.ndarray, junction_px: float = 3.0) 
 def rest_from_gt(sc, models, obj: int, over: dict) -> tuple[np.ndarray, float]:
     """Signed mean (dx, dy, dz) mm in camera axes and mean rotation error (deg) of ``obj`` after
     refining the scene from its exact GT with the RefineOptions overrides ``over``."""
+    from ycbvss.geometry.so3 import rotation_angle_deg
     from ycbvss.refine import RefineOptions, refine_scene
 
     gt = {(f.im_id, i.obj_id): np.array(i.T_m2c, dtype=np.float64) for f in sc.frames for i in f.instances}
@@ -85,8 +86,7 @@ def rest_from_gt(sc, models, obj: int, over: dict) -> tuple[np.ndarray, float]:
     res = refine_scene(sc, models, dict(gt), opt)
     keys = [k for k in gt if k[1] == obj]
     d = np.array([res.poses[k][:3, 3] - gt[k][:3, 3] for k in keys])
-    r = [np.degrees(np.arccos(np.clip((np.trace(res.poses[k][:3, :3] @ gt[k][:3, :3].T) - 1.0) / 2.0, -1.0, 1.0)))
-         for k in keys]
+    r = [float(rotation_angle_deg(res.poses[k][:3, :3] @ gt[k][:3, :3].T)) for k in keys]
     return d.mean(axis=0), float(np.mean(r))
 
 
