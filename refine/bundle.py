@@ -26,6 +26,7 @@ from .jacobians import backproject_px, project_points
 from .init import initialise, sample_model_points
 from .matching import (FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow,
                        residual_flow_pair)
+from .openness import open_points
 from .problem import BundleProblem, View, model_moments
 from .solver import SolverOptions, covariance, run_lm
 from .shading import lit_template, view_lighting
@@ -324,7 +325,13 @@ class _Stage:
                     continue
                 Y = backproject_px(pb.views[i].K, xs[ok], d[ok])
                 Pinv = inv_T(pb.pose(i, j))
-                groups.append(PointGroup(i, j, Y @ Pinv[:3, :3].T + Pinv[:3, 3], xd[ok]))
+                X, x = Y @ Pinv[:3, :3].T + Pinv[:3, 3], xd[ok]
+                if opt.point_min_openness > 0:     # no matches on self-shadowed surface (refine.openness)
+                    keep = open_points(self.models[pb.obj_ids[j]].mesh, X, opt.point_min_openness)
+                    X, x = X[keep], x[keep]
+                    if not len(X):
+                        continue
+                groups.append(PointGroup(i, j, X, x))
         self._point_term = PointTerm(groups, weight=opt.alpha, rho=opt.rho)
         self._t("point_matching_s", time.perf_counter() - t0)
         return self._point_term

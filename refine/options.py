@@ -179,6 +179,11 @@ class RefineOptions:
     # `uncertain`): object means 0.26/0.32/1.38/0.80/0.40 -> 0.33/0.34/1.30/0.88/0.48. Cost: the
     # colour rendered again at f x f within the objects' box, only in the iterations that match anew
     template_supersample: int = 2
+    # > 0: f_point's flow matches only on model surface that sees at least this share of the sky
+    # (refine.openness: cosine-weighted hemisphere, 1 on a convex surface). The templates have no
+    # self-shadowing and a camera image does: matches down a hole, in a recessed lid or between a
+    # clamp's handles move with the shadow. 0: off
+    point_min_openness: float = 0.0
     supersample_groups: str = "medium,wide"
     edge_dilation_k: float = 0.0      # > 0: a shared outward offset of each (view, object)'s contour samples is marginalised out of f_edge, its prior worth this many samples (refine.terms.EdgeTerm)
     # > 0: interior texture (Canny) edge samples only where the rendered normals turn less than this
