@@ -1382,6 +1382,9 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     if opt.template_supersample > 1 and group not in _groups(opt.supersample_groups):
         opt = dc_replace(opt, template_supersample=1)
     stats["template_supersample"] = int(opt.template_supersample)
+    if opt.point_min_openness > 0 and group not in _groups(opt.point_openness_groups):
+        opt = dc_replace(opt, point_min_openness=0.0)
+    stats["point_min_openness"] = float(opt.point_min_openness)
     if group is None or group not in _groups(opt.bias_removal_groups):
         return opt
     stats["bias_removal"] = True
@@ -1498,7 +1501,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
             raise YcbvssError(f"RefineOptions.{name} must be True, False, 'narrow' or 'medium', got {getattr(opt, name)!r}",
                               where=f"scene {scene.scene_id}")
     group_specs = {"bias_removal_groups": opt.bias_removal_groups, "supersample_groups": opt.supersample_groups,
-                   "interior_ridge_groups": opt.interior_ridge_groups}
+                   "interior_ridge_groups": opt.interior_ridge_groups, "point_openness_groups": opt.point_openness_groups}
     if isinstance(opt.edge_across_only, str):
         group_specs["edge_across_only"] = opt.edge_across_only
     if isinstance(opt.axis_hold, str):
@@ -1526,10 +1529,13 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         raise YcbvssError(f"RefineOptions.table_contact_sigma_mm must be a finite number > 0, got "
                           f"{opt.table_contact_sigma_mm!r}", where=f"scene {scene.scene_id}")
     for name in ("edge_contact_mm", "edge_junction_px", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
-                 "ridge_fallback_mm", "ridge_fallback_speed", "edge_contact_offset_k", "contact_offset_mm"):
+                 "ridge_fallback_mm", "ridge_fallback_speed", "edge_contact_offset_k", "contact_offset_mm", "point_min_openness"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):
             raise YcbvssError(f"RefineOptions.{name} must be a finite number >= 0, got {v!r}", where=f"scene {scene.scene_id}")
+    if not opt.point_min_openness <= 1.0:
+        raise YcbvssError(f"RefineOptions.point_min_openness must be a share of the sky in [0, 1], got "
+                          f"{opt.point_min_openness!r}", where=f"scene {scene.scene_id}")
     if opt.edge_contact_offset_k > 0.0 and opt.edge_dilation_k > 0.0:
         raise YcbvssError("RefineOptions.edge_contact_offset_k and edge_dilation_k cannot both be on (one "
                           "contour nuisance per group)", where=f"scene {scene.scene_id}")

@@ -39,6 +39,14 @@ def vertex_openness(mesh, n_dirs: int = 64, skip_mm: float = 3.0) -> np.ndarray:
     ``skip_mm`` along it) hits nothing, the larger over the two sides of the surface."""
     V = np.asarray(mesh.vertices, dtype=np.float64)
     N = np.asarray(mesh.vertex_normals, dtype=np.float64)
+    # rays once per distinct (position, normal): a flat-shaded mesh repeats each corner per face
+    # (the procedural primitives: about 5 copies), a scan's texture seams repeat positions only
+    VN, inverse = np.unique(np.hstack([V, N]), axis=0, return_inverse=True)
+    return _openness(mesh, VN[:, :3], VN[:, 3:], n_dirs, skip_mm)[inverse.ravel()]
+
+
+def _openness(mesh, V: np.ndarray, N: np.ndarray, n_dirs: int, skip_mm: float) -> np.ndarray:
+    """:func:`vertex_openness` at points V (n, 3) mm with normals N (n, 3)."""
     D = sphere_directions(n_dirs)
     best = np.zeros(len(V))
     for side in (1.0, -1.0):

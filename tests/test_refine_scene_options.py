@@ -46,7 +46,8 @@ def _resolved(opt):
 def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
     # edge_rim_depth, table_flow and table_contact bools that stay, template_supersample 1: nothing else to resolve
     opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1,
-                        table_flow=False, table_contact=False, edge_across_only=False, axis_hold=False)
+                        table_flow=False, table_contact=False, edge_across_only=False, axis_hold=False,
+                        point_min_openness=0.0)
     for name, got, stats in _resolved(opt):
         assert stats["bias_removal"] is (name in removed)
         if name in removed:
@@ -68,6 +69,22 @@ def test_axis_hold_resolves_by_the_scenes_baseline_group():
     assert got == {"wide": (False, False), "medium": (False, False), "narrow": (True, True)}
     got = {name: o.axis_hold for name, o, _ in _resolved(RefineOptions(axis_hold="medium,wide"))}
     assert got == {"wide": True, "medium": True, "narrow": False}
+
+
+def test_point_openness_resolves_by_the_scenes_baseline_group():
+    got = {name: (o.point_min_openness, st["point_min_openness"]) for name, o, st in _resolved(RefineOptions())}
+    assert got == {"wide": (0.0, 0.0), "medium": (0.5, 0.5), "narrow": (0.0, 0.0)}
+    got = {name: o.point_min_openness for name, o, _ in
+           _resolved(RefineOptions(point_min_openness=0.7, point_openness_groups="narrow,wide"))}
+    assert got == {"wide": 0.7, "medium": 0.0, "narrow": 0.7}
+
+
+@pytest.mark.parametrize("kw, match", [({"point_openness_groups": "mediun"}, "point_openness_groups"),
+                                       ({"point_min_openness": 1.5}, "point_min_openness"),
+                                       ({"point_min_openness": -0.1}, "point_min_openness")])
+def test_a_bad_point_openness_option_is_an_error_naming_it(kw, match):
+    with pytest.raises(YcbvssError, match=match):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**kw))
 
 
 def test_an_unknown_axis_hold_group_is_an_error_naming_the_option():
