@@ -192,7 +192,9 @@ class RefineOptions:
     # 0.115/0.088 -> 0.065/0.054/0.286/0.118/0.086 (from the exact GT tz 0.212 -> 0.218 mm, R 0.113 ->
     # 0.117 deg; the large clamp's depth 0.16 -> 0.28 mm on long-1); short 4-9, seeds 0, 1, 5, 6
     # 0.129/0.130/0.760/0.290/0.171 -> 0.124/0.124/0.766/0.281/0.172 (short-7's foam brick R
-    # 2.6 -> 3.1 deg, the marker on short-9 0.94 -> 0.22 deg at seed 0). Hence medium bundles only
+    # 2.6 -> 3.1 deg, the marker on short-9 0.94 -> 0.22 deg at seed 0). Hence medium bundles only.
+    # On the sealed fresh medium scenes 31-36 (seeds 0, 1; run after the choice) no gain: 0.077/0.065/
+    # 0.361/0.198/0.105 -> 0.074/0.063/0.375/0.199/0.104 (medium-35's whole scene 0.1-0.4 mm nearer)
     point_min_openness: float = 0.5
     point_openness_groups: str = "medium"
     supersample_groups: str = "medium,wide"
