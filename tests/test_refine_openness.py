@@ -63,3 +63,15 @@ def test_open_points_keeps_what_sees_enough_sky():
     X = np.array([[0.0, 10.0, 0.0], [0.0, 14.0, 0.0], [14.0, 0.0, 10.0]])
     assert open_points(tube, X, 0.5).tolist() == [False, True, True]
     assert open_points(tube, X, 0.0).all()                 # off: every point
+
+
+def test_repeated_corners_are_cast_once_with_the_same_result():
+    """A flat-shaded mesh repeats each corner per face: the rays are cast once per distinct
+    (position, normal), and every copy gets exactly what casting them per vertex gives."""
+    from ycbvss.refine.openness import _openness
+    tube = _tube()
+    flat = trimesh.Trimesh(tube.vertices[tube.faces].reshape(-1, 3), np.arange(3 * len(tube.faces)).reshape(-1, 3),
+                           process=False)
+    V, N = np.asarray(flat.vertices), np.asarray(flat.vertex_normals)
+    assert len(np.unique(np.hstack([V, N]), axis=0)) < 0.9 * len(V)     # copies with equal normals are there
+    assert np.array_equal(vertex_openness(flat), _openness(flat, V, N, 64, 3.0))
