@@ -4,8 +4,8 @@ A template (the fast renderer's albedo, or that albedo lit by a per-view Lambert
 :mod:`ycbvss.refine.shading`) has no self-shadowing. A camera image does: the inside of a hole, a
 recessed lid or the gap between a clamp's handles is darker than its albedo, and its texture edges
 and corners move with the shadow. Point matches found there carry that shift into the pose (suite
-medium-7 from the exact GT: 157 of the foam brick's 181 flow matches lie in its three holes; without
-them its rest turns 1.88 -> 1.22 deg, session 65).
+medium-7 from the exact GT: 157 of the foam brick's 181 flow matches lie in its three holes; keeping
+only matches on surface that sees half the sky, its rest turns 1.88 -> 0.79 deg, session 65).
 
 ``openness`` in [0, 1] is the cosine-weighted share of the hemisphere above a vertex from which no
 part of the mesh blocks the sky: 1 on a convex surface, ~0.5 at the bottom of a wide bowl, ~0.1-0.3
