@@ -13,6 +13,10 @@ is the suite's Cycles render, never the fast renderer's.
 
     python bench/bench_contour_offsets.py --suite-root /tmp/suite/full --dataset ../shared/data/ycbv \
         --scenes 1,2,4,5,6,7 --frames 0,20,40 --out bench/results/ycbv21/contour_offsets
+
+``--objects``: per object, the binary prediction against the appearance predictions (unlit, lit,
+lit with the rim's shading held; ``RefineOptions.edge_appearance``, ``template_shading``,
+``shading_rim_px``), table ``contour_objects``.
 """
 from __future__ import annotations
 
@@ -95,9 +99,16 @@ def main() -> None:
                     help="instead: the offsets by the contour's image direction (outward normal up / down / sideways) "
                          "for the binary contour prediction, the appearance prediction from the unlit template and from "
                          "the lit one (RefineOptions.edge_appearance, template_shading); table contour_directions")
+    ap.add_argument("--objects", action="store_true",
+                    help="instead: per object, the offsets from the binary contour prediction, the appearance prediction "
+                         "from the unlit template, from the lit one, and from the lit one with its rim's shading held "
+                         "(RefineOptions.shading_rim_px 3); table contour_objects")
     a = ap.parse_args()
     if a.directions:
         directions(a)
+        return
+    if a.objects:
+        objects(a)
         return
     rows = []
     models: dict = {}
@@ -177,6 +188,54 @@ def directions(a: argparse.Namespace) -> None:
         t.rows.append(Row(f"{mode}: {d}", [float(len(x)), float(x.mean()), float(np.sqrt(np.mean(x ** 2)))]))
         print(f"{mode:28s} {d:9s} n {len(x):4d} mean {x.mean():+.3f} rms {np.sqrt(np.mean(x ** 2)):.3f}")
     for p in write_table(t, Path(a.out), "contour_directions"):
+        print(p)
+
+
+def objects(a: argparse.Namespace) -> None:
+    """Per object, the mean over its (view)s of the median image-edge offset (px, outward +) from
+    the contour samples of four predictions, and over objects the mean and rms; table of them."""
+    from ycbvss.eval.tables import Row, Table, write_table
+    from ycbvss.refine.contour_match import _minimum_along
+    from ycbvss.refine.edge import edge_field
+    from ycbvss.refine.shading import lit_template
+    from ycbvss.refine.templates import view_edge_candidates
+
+    modes = ("binary", "appearance, unlit", "appearance, lit", "appearance, lit, rim held 3 px")
+    acc: dict = {}
+    names: dict = {}
+    for models, _, _, img, vr, oids in gt_views(a):
+        fld = edge_field(img, a.sigma_px, colour=True)
+        lit = lit_template(vr.color, vr.normal, vr.instance, img)
+        held = lit_template(vr.color, vr.normal, vr.instance, img, rim_px=3)
+        for mode, kw in zip(modes, ({}, {"image": img}, {"image": img, "appearance_color": lit},
+                                    {"image": img, "appearance_color": held})):
+            c = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True, **kw)
+            for lab0, oid in enumerate(oids):
+                names[oid] = getattr(models[oid], "name", None) or str(oid)
+                sel = np.flatnonzero((c.l_c == lab0 + 1) & np.any(c.n_c != 0.0, axis=1))
+                if len(sel) < a.min_samples:
+                    continue
+                t = _minimum_along(fld, c.uv_c[sel], c.n_c[sel], 1.5, 0.25)
+                ok = np.abs(t) < 1.5 - 0.25               # a minimum at the window's end: no edge found
+                if ok.sum() >= 10:
+                    acc.setdefault((oid, mode), []).append(float(np.median(t[ok])))
+    t = Table(["views"] + [f"{m} (px)" for m in modes], label_header="object", digits=3,
+              caption=f"Image edge minus contour sample along the outward normal at the exact GT (sigma {a.sigma_px:g} px), "
+                      f"mean over each object's views of the per-view median, for four predictions of the contour; "
+                      f"scenes {a.scenes}, frame positions {a.frames}")
+    per = {m: [] for m in modes}
+    for o in sorted(names):
+        if (o, modes[0]) not in acc:
+            continue
+        vals = [float(np.mean(acc.get((o, m), [np.nan]))) for m in modes]
+        for m, v in zip(modes, vals):
+            per[m].append(v)
+        t.rows.append(Row(names[o], [float(len(acc[(o, modes[0])]))] + vals))
+    t.rows.append(Row("mean over objects", [np.nan] + [float(np.nanmean(per[m])) for m in modes], rule_before=True))
+    t.rows.append(Row("rms over objects", [np.nan] + [float(np.sqrt(np.nanmean(np.square(per[m])))) for m in modes]))
+    t.rows.append(Row("rms over (view, object)s", [np.nan] + [
+        float(np.sqrt(np.mean(np.square(np.concatenate([acc[k] for k in acc if k[1] == m]))))) for m in modes]))
+    for p in write_table(t, Path(a.out), "contour_objects"):
         print(p)
 
 

@@ -261,7 +261,7 @@ class _Stage:
         ridge_lit = bool(eo["ridge_lit"] and vr.normal is not None)
         return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] or ridge_lit else None,
                                    self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
-                                   eo["app"], ridge_lit)
+                                   eo["app"], ridge_lit, self.opt.shading_rim_px)
 
     def _edge_term(self, fields: dict, jobs: list, vis: set, eo: dict) -> EdgeTerm:
         """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
@@ -308,7 +308,7 @@ class _Stage:
             lit = self._lit.get(i, True) if self.shading and vr.normal is not None else None
             jobs.append((i, vr, objs, (x0, y0), _view_pool().submit(
                 _view_matches_lit, vr, pb.views[i].image, box, lit, self._light.get(i), masks, opt.flow,
-                self.me_image(i)[y0:y1, x0:x1])))
+                self.me_image(i)[y0:y1, x0:x1], opt.shading_rim_px)))
         for i, vr, objs, (x0, y0), job in jobs:
             found, light = job.result()
             if light is not None:
@@ -803,30 +803,32 @@ def _table_pair_rotation(img_k: np.ndarray, img_i: np.ndarray, objects_k: np.nda
     return table_rotation(xs, xd, K_k, K_i, R_guess, n_k, with_normal=True)
 
 
-def _lit_colour(vr: ViewRender, image: np.ndarray, light: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+def _lit_colour(vr: ViewRender, image: np.ndarray, light: np.ndarray | None,
+                rim_px: int = 0) -> tuple[np.ndarray, np.ndarray | None]:
     """View render ``vr``'s template colour lit by ``light`` (3, 9), or by the lighting fitted to
-    ``image`` here when None (:mod:`ycbvss.refine.shading`): (lit colour, the lighting used)."""
+    ``image`` here when None (:mod:`ycbvss.refine.shading`; ``rim_px``: the silhouettes' outer
+    band keeps the shading further in, ``RefineOptions.shading_rim_px``): (lit colour, the lighting used)."""
     if light is None:
         light = view_lighting(vr.color, vr.normal, vr.instance, image)
     if light is None:        # too few pixels to fit: the unlit template (lit_template would fit again)
         return np.asarray(vr.color), None
-    return lit_template(vr.color, vr.normal, vr.instance, image, coeffs=light), light
+    return lit_template(vr.color, vr.normal, vr.instance, image, coeffs=light, rim_px=rim_px), light
 
 
 def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np.ndarray | None, lit: bool,
                          light: np.ndarray | None, kw: dict, app: bool = True,
-                         ridge_lit: bool = False) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
+                         ridge_lit: bool = False, rim_px: int = 0) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
     """One view's contour/interior candidates (:func:`view_edge_candidates` with the options ``kw``;
     ``image``: the view's image for the contour's appearance prediction, None: none). ``lit``: that
     prediction uses the lit template (``lit_color`` when already made, else made here with the
     view's lighting ``light``, fitted here when None). Returns (the lit colour or None, the
     lighting or None, the candidates)."""
     if lit and lit_color is None:
-        lit_color, light = _lit_colour(vr, image, light)
+        lit_color, light = _lit_colour(vr, image, light, rim_px)
     if ridge_lit:            # the interior samples' template (area colour or vr.color) lit as the image
         base = kw.get("interior_color")
         base_vr = vr if base is None else dc_replace(vr, color=base)
-        icol, light = _lit_colour(base_vr, image, light)     # the lighting passed in, or fitted here
+        icol, light = _lit_colour(base_vr, image, light, rim_px)     # the lighting passed in, or fitted here
         kw = dict(kw, interior_color=icol)
     return ((lit_color, light) if lit or ridge_lit else (None, None)) + (
         view_edge_candidates(vr, image=image if app else None, appearance_color=lit_color if lit else None, **kw),)
@@ -834,7 +836,8 @@ def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np
 
 def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int],
                       lit: np.ndarray | bool | None, light: np.ndarray | None, masks: list[np.ndarray],
-                      flow: FlowOptions, dst_me: np.ndarray) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
+                      flow: FlowOptions, dst_me: np.ndarray,
+                      rim_px: int = 0) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
     """:func:`_view_matches` of the template composited over the view's ``image`` in ``box``
     (y0, y1, x0, x1), and the lighting used. ``lit``: None, the unlit template; an array, that lit
     colour; True, the template lit by ``light`` (fitted to the image here when None)."""
@@ -844,7 +847,7 @@ def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, in
         if lit is not None:
             lit = True         # a lit colour passed in is the point-sampled one's: light the area colour
     if lit is True:
-        lit, light = _lit_colour(vr, image, light)
+        lit, light = _lit_colour(vr, image, light, rim_px)
     if lit is not None:
         vr = dc_replace(vr, color=lit)
     y0, y1, x0, x1 = box

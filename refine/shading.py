@@ -82,13 +82,54 @@ def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask
     return C
 
 
-def shade(albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
-    """The template lit by ``coeffs`` (3, 9) where ``mask``, else ``albedo`` unchanged: (H, W, 3) uint8 sRGB."""
+def hold_rim(irradiance: np.ndarray, instance: np.ndarray, rim_px: int) -> np.ndarray:
+    """``irradiance`` (H, W, C) with every object pixel within ``rim_px`` px of its silhouette
+    (``instance`` (H, W) > 0 labels the objects; the rim is what a (2 rim_px + 1)-square erosion
+    removes) given the value of the nearest pixel of the same object further in. A new array.
+
+    Why: the lighting is fitted ``erode_px`` (3) px inside the silhouettes (:func:`view_lighting`),
+    so at the rim, where the normals turn to face sideways, its quadratic in the normal
+    extrapolates the Lambertian fall-off, and a glossy surface's grazing Fresnel reflection (which
+    the model lacks) brightens that band in a Cycles image or a photo. Measured at the exact GT of
+    the ``ycbv21`` suite (scenes 3, 5, 9): the wood block's bevelled lower edge came out 10 % darker
+    than the image in its outer 2 px, which put the predicted contour 0.35 px inside the image's.
+    Objects smaller than the rim (no pixel left after the erosion) keep their values."""
+    import cv2
+    from scipy.ndimage import distance_transform_edt
+
+    out = np.array(irradiance, copy=True)
+    inst = np.asarray(instance)
+    if rim_px <= 0:
+        return out
+    ker = np.ones((2 * rim_px + 1,) * 2, np.uint8)
+    for lab in np.unique(inst[inst > 0]):
+        ys, xs = np.nonzero(inst == lab)
+        y0, y1, x0, x1 = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+        m = inst[y0:y1, x0:x1] == lab
+        core = cv2.erode(m.astype(np.uint8), ker, borderType=cv2.BORDER_CONSTANT, borderValue=0).astype(bool)
+        if not core.any():
+            continue
+        _, (iy, ix) = distance_transform_edt(~core, return_indices=True)
+        rim = m & ~core
+        crop = out[y0:y1, x0:x1]                                         # a view: written in place
+        crop[rim] = crop[iy[rim], ix[rim]]
+    return out
+
+
+def shade(albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray, coeffs: np.ndarray,
+          instance: np.ndarray | None = None, rim_px: int = 0) -> np.ndarray:
+    """The template lit by ``coeffs`` (3, 9) where ``mask``, else ``albedo`` unchanged: (H, W, 3) uint8 sRGB.
+    ``rim_px`` > 0 (with ``instance``, the labels): the irradiance within ``rim_px`` px of each
+    silhouette held at its value further in (:func:`hold_rim`)."""
     out = np.array(albedo, copy=True)
     px = np.flatnonzero(np.asarray(mask, bool))
     n = np.asarray(normals).reshape(-1, 3)[px].astype(np.float64)
     n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-9)
     s = np.clip(sh9_basis(n) @ coeffs.T, 0.0, None)                      # (N, 3) irradiance per channel
+    if rim_px > 0 and instance is not None:
+        full = np.zeros((out.shape[0] * out.shape[1], 3))
+        full[px] = s
+        s = hold_rim(full.reshape(out.shape[0], out.shape[1], 3), instance, rim_px).reshape(-1, 3)[px]
     flat = out.reshape(-1, 3)                                            # a view of out (a fresh copy)
     flat[px] = _linear_to_srgb_u8(srgb_to_linear(flat[px]) * s)
     return out
@@ -107,9 +148,13 @@ def view_lighting(color: np.ndarray, normals: np.ndarray, instance: np.ndarray, 
 
 
 def lit_template(color: np.ndarray, normals: np.ndarray, instance: np.ndarray, image: np.ndarray,
-                 erode_px: int = 3, max_px: int = 40000, coeffs: np.ndarray | None = None) -> np.ndarray:
+                 erode_px: int = 3, max_px: int = 40000, coeffs: np.ndarray | None = None,
+                 rim_px: int = 0) -> np.ndarray:
     """One view's template ``color`` (H, W, 3 uint8, unlit) shaded by the lighting fitted to
     ``image`` (:func:`view_lighting`), or by ``coeffs`` (3, 9) when given (a lighting fitted
-    before: it is the view's, not the poses'). The unlit template when the fit has too few pixels."""
+    before: it is the view's, not the poses'). The unlit template when the fit has too few pixels.
+    ``rim_px`` > 0: the shading of each silhouette's outer ``rim_px`` px held at its value further
+    in (:func:`hold_rim`; ``erode_px``, where the fit stops, is the natural choice)."""
     C = view_lighting(color, normals, instance, image, erode_px, max_px) if coeffs is None else coeffs
-    return np.asarray(color) if C is None else shade(color, normals, np.asarray(instance) > 0, C)
+    return np.asarray(color) if C is None else shade(color, normals, np.asarray(instance) > 0, C,
+                                                     instance=instance, rim_px=rim_px)
