@@ -249,7 +249,7 @@ class _Stage:
         ridge = self.interior_ridge and self.at_finest
         if ridge:
             kw["interior_ridge_sigma_px"] = level_sigma
-        return {"kw": kw, "app": app, "lit": app and self.shading, "dil": dil,
+        return {"kw": kw, "app": app, "lit": app and self.shading and opt.edge_appearance_lit, "dil": dil,
                 "ridge_area": ridge and opt.template_supersample > 1, "ridge_lit": ridge and opt.interior_ridge_lit}
 
     def _submit_edge_job(self, i: int, vr: ViewRender, eo: dict):

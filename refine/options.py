@@ -101,6 +101,14 @@ class RefineOptions:
     # level. True: every bundle; "narrow": narrow-baseline bundles only. Off by default (see template_shading;
     # bias_removal_groups sets it on medium and wide scenes)
     edge_appearance: bool | str = False
+    # with edge_appearance and template_shading both on: the contour's appearance prediction uses the
+    # lit template (True) or the unlit one (False; f_point's templates stay lit). At the exact GT
+    # (bench_contour_offsets --objects, all 9 suite scenes) the unlit one fits the image's edges as
+    # well (rms over objects 0.048 against 0.053 px, per (view, object) 0.071 against 0.069; the wood
+    # block +0.035 against +0.105), but medium clips 1-9 from the paper's init, seed 1, paired (session
+    # 66): tx/ty/tz/R/PRJ 0.079/0.115/0.299/0.231/0.145 -> 0.075/0.119/0.407/0.267/0.143 (medium-3 and
+    # -1 recede 1.2 and 0.6 mm as a whole: the scene scale, bench/results/ycbv21/README.md session 66)
+    edge_appearance_lit: bool = True
     # f_edge's contour samples skip contact lines: silhouette pixels whose neighbour is another
     # object's surface less than this far behind (mm; refine.edge.all_contour_points). There the
     # image's edge is the contact shadow's: on suite medium-4 the foam brick resting on the sugar box
