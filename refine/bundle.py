@@ -1419,6 +1419,26 @@ def _groups(spec: str) -> tuple[str, ...]:
     return out
 
 
+def _apply_point_scale(pb: BundleProblem, terms: list, stats: dict) -> None:
+    """Rescale the solved keyframe bundle (every camera and object translation times 1 + s) to the
+    scale f_point's matches prefer, weighed against the contours' scene-scale spread
+    (:mod:`ycbvss.refine.scene_scale`, ``RefineOptions.point_scale_groups``); records it in stats."""
+    from .scene_scale import blended_scale, point_scale
+
+    pt = next((t for t in terms if getattr(t, "name", "") == "point"), None)
+    if pt is None or not pt.groups:
+        return
+    s_p, se, n = point_scale(pt.groups, lambda i: pb.views[i].K, lambda i, j: pb.T_c[i] @ pb.T_m[j],
+                             pt.rho, pt.floor_px, pt.cap_px)
+    s = blended_scale(s_p, se)
+    stats["point_scale"] = {"preferred": s_p, "se": se, "matches": n, "applied": s}
+    if s != 0.0:
+        pb.T_c = pb.T_c.copy()
+        pb.T_m = pb.T_m.copy()
+        pb.T_c[:, :3, 3] *= 1.0 + s
+        pb.T_m[:, :3, 3] *= 1.0 + s
+
+
 def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarray, pb0: BundleProblem,
                       kf: list[int], opt: RefineOptions, log: list, stats: dict, imgs: _SceneImages
                       ) -> _KeyframeSolution:
@@ -1470,6 +1490,8 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
         pb.T_c, pb.T_m = _in_first_camera(pb.state())
         pb.cam_free[0] = False
         pb._index()
+    if group_now in _groups(opt.point_scale_groups) and not opt.fix_cameras and terms_kf:
+        _apply_point_scale(pb, terms_kf, stats)
     visible = {(views[kf[i]].im_id, obj_ids[j]) for (i, j) in stage.visible}
     cov_kf = covariance(pb, terms_kf) if (opt.compute_uncertainty and terms_kf) else None
     T_c = pb0.T_c.copy()
@@ -1504,7 +1526,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
             raise YcbvssError(f"RefineOptions.{name} must be True, False, 'narrow' or 'medium', got {getattr(opt, name)!r}",
                               where=f"scene {scene.scene_id}")
     group_specs = {"bias_removal_groups": opt.bias_removal_groups, "supersample_groups": opt.supersample_groups,
-                   "interior_ridge_groups": opt.interior_ridge_groups, "point_openness_groups": opt.point_openness_groups}
+                   "interior_ridge_groups": opt.interior_ridge_groups, "point_openness_groups": opt.point_openness_groups,
+                   "point_scale_groups": opt.point_scale_groups}
     if isinstance(opt.edge_across_only, str):
         group_specs["edge_across_only"] = opt.edge_across_only
     if isinstance(opt.axis_hold, str):

@@ -80,6 +80,7 @@ def test_point_openness_resolves_by_the_scenes_baseline_group():
 
 
 @pytest.mark.parametrize("kw, match", [({"point_openness_groups": "mediun"}, "point_openness_groups"),
+                                       ({"point_scale_groups": "wdie"}, "point_scale_groups"),
                                        ({"point_min_openness": 1.5}, "point_min_openness"),
                                        ({"point_min_openness": -0.1}, "point_min_openness")])
 def test_a_bad_point_openness_option_is_an_error_naming_it(kw, match):
