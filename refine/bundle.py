@@ -1419,10 +1419,13 @@ def _groups(spec: str) -> tuple[str, ...]:
     return out
 
 
-def _apply_point_scale(pb: BundleProblem, terms: list, stats: dict) -> None:
-    """Rescale the solved keyframe bundle (every camera and object translation times 1 + s) to the
-    scale f_point's matches prefer, weighed against the contours' scene-scale spread
-    (:mod:`ycbvss.refine.scene_scale`, ``RefineOptions.point_scale_groups``); records it in stats."""
+def _apply_point_scale(pb: BundleProblem, terms: list, stats: dict, scaled: np.ndarray) -> None:
+    """Rescale the solved keyframe bundle about its first camera (every camera's and every
+    ``scaled`` object's translation in that camera's frame times 1 + s) to the scale f_point's
+    matches prefer, weighed against the contours' scene-scale spread
+    (:mod:`ycbvss.refine.scene_scale`, ``RefineOptions.point_scale_groups``); records it in stats.
+    Objects no view shows (``scaled`` False) keep their poses in the first camera's frame: no image
+    says where they are, so the scene's scale does not move them."""
     from .scene_scale import blended_scale, point_scale
 
     pt = next((t for t in terms if getattr(t, "name", "") == "point"), None)
@@ -1433,10 +1436,12 @@ def _apply_point_scale(pb: BundleProblem, terms: list, stats: dict) -> None:
     s = blended_scale(s_p, se)
     stats["point_scale"] = {"preferred": s_p, "se": se, "matches": n, "applied": s}
     if s != 0.0:
-        pb.T_c = pb.T_c.copy()
-        pb.T_m = pb.T_m.copy()
-        pb.T_c[:, :3, 3] *= 1.0 + s
-        pb.T_m[:, :3, 3] *= 1.0 + s
+        G = pb.T_c[0].copy()
+        T_c, T_m = _in_first_camera(pb.state())
+        T_c[:, :3, 3] *= 1.0 + s
+        T_m[scaled, :3, 3] *= 1.0 + s
+        pb.T_c = T_c @ G
+        pb.T_m = inv_T(G) @ T_m
 
 
 def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarray, pb0: BundleProblem,
@@ -1490,8 +1495,10 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
         pb.T_c, pb.T_m = _in_first_camera(pb.state())
         pb.cam_free[0] = False
         pb._index()
-    if group_now in _groups(opt.point_scale_groups) and not opt.fix_cameras and terms_kf:
-        _apply_point_scale(pb, terms_kf, stats)
+    if group_now in _groups(opt.point_scale_groups) and not (opt.fix_cameras or opt.fix_objects) and terms_kf:
+        seen = np.zeros(len(obj_ids), bool)
+        seen[[j for (_, j) in stage.visible]] = True
+        _apply_point_scale(pb, terms_kf, stats, seen & np.asarray(pb.obj_free, bool))
     visible = {(views[kf[i]].im_id, obj_ids[j]) for (i, j) in stage.visible}
     cov_kf = covariance(pb, terms_kf) if (opt.compute_uncertainty and terms_kf) else None
     T_c = pb0.T_c.copy()

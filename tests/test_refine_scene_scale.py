@@ -62,17 +62,38 @@ def test_blend_weighs_the_estimate_against_the_contour_spread():
     assert blended_scale(float("nan"), 1e-5) == 0.0 and blended_scale(0.001, float("nan")) == 0.0
 
 
-def test_rescaling_cameras_and_objects_scales_every_object_to_camera_translation():
-    """What the bundle applies (refine.bundle._apply_point_scale): every camera's and object's
-    world translation times 1 + s scales each T_c @ T_m translation by 1 + s, rotations unchanged."""
+def test_the_bundle_rescale_scales_every_seen_pose_and_leaves_the_unseen():
+    """refine.bundle._apply_point_scale on a bundle whose matches say every object-to-camera
+    translation is 0.05 % longer: each seen (view, object) translation grows by the applied scale
+    (= the estimate weighed against the contours' spread), rotations and the first camera stay,
+    and an object no view shows keeps its pose in the first camera."""
+    from types import SimpleNamespace
+
+    from ycbvss.refine.bundle import _apply_point_scale
+    from ycbvss.refine.terms import PointTerm
+
     rng = np.random.default_rng(2)
-    T_c = np.stack([_pose(rng, 800.0) for _ in range(4)])
-    T_m = np.stack([_pose(rng, 300.0) for _ in range(3)])
-    s = 0.0007
-    T_c2, T_m2 = T_c.copy(), T_m.copy()
-    T_c2[:, :3, 3] *= 1 + s
-    T_m2[:, :3, 3] *= 1 + s
+    T_c = np.stack([_pose(rng, 100.0) for _ in range(4)])
+    T_c[0] = np.eye(4) @ _pose(rng, 50.0)
+    T_m = np.stack([_pose(rng, 1100.0) for _ in range(3)])
+    s0 = 0.0005
+    groups = []
     for i in range(4):
-        for j in range(3):
-            A, B = T_c[i] @ T_m[j], T_c2[i] @ T_m2[j]
-            assert np.allclose(B[:3, :3], A[:3, :3]) and np.allclose(B[:3, 3], (1 + s) * A[:3, 3])
+        for j in range(2):                                   # object 2 is never seen
+            T = T_c[i] @ T_m[j]
+            X = rng.uniform(-50, 50, size=(200, 3))
+            Ts = T.copy()
+            Ts[:3, 3] *= 1 + s0
+            groups.append(PointGroup(i, j, X, _project(Ts, X)))
+    pb = SimpleNamespace(T_c=T_c.copy(), T_m=T_m.copy(), views=[SimpleNamespace(K=K)] * 4)
+    pb.state = lambda: (pb.T_c.copy(), pb.T_m.copy())
+    stats = {}
+    _apply_point_scale(pb, [PointTerm(groups)], stats, np.array([True, True, False]))
+    s = stats["point_scale"]["applied"]
+    assert abs(stats["point_scale"]["preferred"] - s0) < 1e-6 and abs(s - s0) < 1e-6, stats   # measured 0.00049974 (linearised)
+    assert np.allclose(pb.T_c[0], T_c[0], atol=1e-9)
+    for i in range(4):
+        for j in range(2):
+            A, B = T_c[i] @ T_m[j], pb.T_c[i] @ pb.T_m[j]
+            assert np.allclose(B[:3, :3], A[:3, :3], atol=1e-9) and np.allclose(B[:3, 3], (1 + s) * A[:3, 3], atol=1e-6)
+    assert np.allclose(pb.T_c[0] @ pb.T_m[2], T_c[0] @ T_m[2], atol=1e-9)
