@@ -9,8 +9,8 @@ add up to a scale error of about +-0.07 % (``bench/bench_contour_offsets.py --ob
 prediction; up to 1.2 mm of depth). The flow matches' scale at the exact GT varies by about
 0.012 % between scenes, about a common -0.024 % (scenes 1-8; scene 9 -0.059 %).
 
-:func:`point_scale` is the scale the point term alone prefers at the current poses: one IRLS
-least-squares step of its robust cost along the scale direction, with its standard error.
+:func:`point_scale` is the scale the point term alone prefers at the current poses: its robust
+cost minimised along the scale direction by IRLS, with a standard error.
 """
 from __future__ import annotations
 
@@ -24,16 +24,13 @@ CONTOUR_SCALE_RMS = 0.00066
 
 def scale_gradients(K: np.ndarray, T_m2c: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Projections uv (N, 2) px of model points X (N, 3) mm under T_m2c (4x4), their derivative
-    g (N, 2) px per unit of scale (the translation times 1 + s), and valid (N,) (in front of the camera)."""
+    g (N, 2) px per unit of scale (the translation times 1 + s: d uv / d Y times t), and valid (N,)
+    (:func:`ycbvss.refine.jacobians.project_jac`, the projection f_point's term uses)."""
+    from .jacobians import project_jac
+
     Xc = np.asarray(X, np.float64) @ T_m2c[:3, :3].T + T_m2c[:3, 3]
-    t = T_m2c[:3, 3]
-    Z = Xc[:, 2]
-    valid = Z > 1e-6
-    Zs = np.where(valid, Z, 1.0)
-    uv = np.stack([K[0, 0] * Xc[:, 0] / Zs + K[0, 2], K[1, 1] * Xc[:, 1] / Zs + K[1, 2]], axis=1)
-    g = np.stack([K[0, 0] * (t[0] * Zs - Xc[:, 0] * t[2]) / Zs ** 2,
-                  K[1, 1] * (t[1] * Zs - Xc[:, 1] * t[2]) / Zs ** 2], axis=1)
-    return uv, g, valid
+    uv, J, valid = project_jac(K, Xc)
+    return uv, J @ T_m2c[:3, 3], valid
 
 
 def point_scale(groups: list, K_of, T_of, rho: float, floor_px: float, cap_px: float,
