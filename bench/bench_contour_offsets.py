@@ -14,6 +14,10 @@ is the suite's Cycles render, never the fast renderer's.
     python bench/bench_contour_offsets.py --suite-root /tmp/suite/full --dataset ../shared/data/ycbv \
         --scenes 1,2,4,5,6,7 --frames 0,20,40 --out bench/results/ycbv21/contour_offsets
 
+``--contact MM``: per object, the lit prediction's offsets on the contour's lower, upper and
+sideways stretches, split into samples at a contact line (the image's depth just outside within MM
+of the object's) and free ones (``RefineOptions.edge_table_mm``), table ``contour_contact``.
+
 ``--objects``: per object, the binary prediction against the appearance predictions (unlit, lit,
 lit with the rim's shading held; ``RefineOptions.edge_appearance``, ``template_shading``,
 ``shading_rim_px``), table ``contour_objects``.
@@ -103,7 +107,15 @@ def main() -> None:
                     help="instead: per object, the offsets from the binary contour prediction, the appearance prediction "
                          "from the unlit template, from the lit one, and from the lit one with its rim's shading held "
                          "(RefineOptions.shading_rim_px 3); table contour_objects")
+    ap.add_argument("--contact", type=float, default=0.0, metavar="MM",
+                    help="instead: per object, the lit appearance prediction's offsets by side (outward normal down / up / "
+                         "sideways in the image) for contour samples at a contact line -- the image's own depth (the "
+                         "suite's Cycles depth) 1.5-3 px outside lies within MM of the object's -- and the free ones; "
+                         "table contour_contact (RefineOptions.edge_table_mm)")
     a = ap.parse_args()
+    if a.contact > 0:
+        contact(a)
+        return
     if a.directions:
         directions(a)
         return
@@ -148,6 +160,62 @@ def main() -> None:
                            float(np.median([x["scatter_px"] for x in v]))]))
     t.rows.append(Row("all", [float(len(rows)), float(b.mean()), sigma_b, sigma_s], rule_before=True))
     for p in write_table(t, Path(a.out), "contour_offsets"):
+        print(p)
+
+
+def contact(a: argparse.Namespace) -> None:
+    """Per object, the median image-edge offset (px, outward +) from the lit appearance prediction of
+    its contour samples, per view, by side (down / up / sideways by the outward normal's image y)
+    and by contact (the frame's own depth, median at 1.5-3 px outside, within ``a.contact`` mm of
+    the template's depth 1 px inside) or free; the mean over views, and over objects the mean,
+    the rms and the sample counts."""
+    from ycbvss.eval.tables import Row, Table, write_table
+    from ycbvss.refine.contour_match import _minimum_along
+    from ycbvss.refine.edge import edge_field, sample_bilinear
+    from ycbvss.refine.shading import lit_template
+    from ycbvss.refine.templates import view_edge_candidates
+
+    sides = ("down", "up", "sideways")
+    cols = [(s_, c_) for s_ in sides for c_ in ("contact", "free")]
+    acc: dict = {}
+    names: dict = {}
+    count = {k: 0 for k in cols}
+    for models, sid, fr, img, vr, oids in gt_views(a):
+        dep = fr.load_depth_mm().astype(np.float32)
+        fld = edge_field(img, a.sigma_px, colour=True)
+        lit = lit_template(vr.color, vr.normal, vr.instance, img)
+        c = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True, image=img, appearance_color=lit)
+        for lab0, oid in enumerate(oids):
+            names[oid] = getattr(models[oid], "name", None) or str(oid)
+            sel = np.flatnonzero((c.l_c == lab0 + 1) & np.any(c.n_c != 0.0, axis=1))
+            if len(sel) < a.min_samples:
+                continue
+            uv, n = c.uv_c[sel], c.n_c[sel]
+            t = _minimum_along(fld, uv, n, 1.5, 0.25)
+            own = np.where(vr.instance == lab0 + 1, vr.depth_mm, 0.0).astype(np.float32)[..., None]
+            d_in = sample_bilinear(own, uv - n)[0][:, 0]
+            d_out = np.median(np.stack([sample_bilinear(dep[..., None], uv + s_ * n)[0][:, 0]
+                                        for s_ in (1.5, 2.0, 2.5, 3.0)]), axis=0)
+            at = (np.abs(d_out - d_in) < a.contact) & (d_in > 0)
+            ok = np.abs(t) < 1.5 - 0.25                   # a minimum at the window's end: no edge found
+            for side, m in zip(sides, (n[:, 1] > 0.5, n[:, 1] < -0.5, np.abs(n[:, 1]) <= 0.5)):
+                for ct, mm in (("contact", at), ("free", ~at)):
+                    q = ok & m & mm
+                    count[(side, ct)] += int(q.sum())
+                    if q.sum() >= 5:
+                        acc.setdefault((oid, side, ct), []).append(float(np.median(t[q])))
+    t = Table([f"{s_} {c_} (px)" for s_, c_ in cols], label_header="object", digits=3,
+              caption=f"Image edge minus the lit appearance prediction of the contour samples at the exact GT (sigma "
+                      f"{a.sigma_px:g} px), by the outward normal's side in the image and by contact (the image's depth "
+                      f"1.5-3 px outside within {a.contact:g} mm of the object's); mean over views of the per-view median; "
+                      f"scenes {a.scenes}, frame positions {a.frames}")
+    for o in sorted(names):
+        t.rows.append(Row(names[o], [float(np.mean(acc[(o,) + k])) if (o,) + k in acc else np.nan for k in cols]))
+    per = {k: [float(np.mean(v)) for kk, v in acc.items() if kk[1:] == k] for k in cols}
+    t.rows.append(Row("mean over objects", [float(np.mean(per[k])) if per[k] else np.nan for k in cols], rule_before=True))
+    t.rows.append(Row("rms over objects", [float(np.sqrt(np.mean(np.square(per[k])))) if per[k] else np.nan for k in cols]))
+    t.rows.append(Row("samples", [float(count[k]) for k in cols]))
+    for p in write_table(t, Path(a.out), "contour_contact"):
         print(p)
 
 

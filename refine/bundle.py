@@ -98,6 +98,7 @@ class _Stage:
         # edge_appearance / template_shading of this stage (True: always; "narrow": the keyframe stage of a
         # narrow-baseline bundle sets them)
         self.appearance = opt.edge_appearance is True
+        self.edge_table = False          # edge_table_mm applies (its groups hold this stage's bundle's group; keyframe stage)
         self.shading = opt.template_shading is True
         # last outer iteration's change of every camera / object: (mm, deg) arrays
         self.numerical_failure = False    # a linear system stayed singular / non-finite at every damping
@@ -250,7 +251,22 @@ class _Stage:
         if ridge:
             kw["interior_ridge_sigma_px"] = level_sigma
         return {"kw": kw, "app": app, "lit": app and self.shading and opt.edge_appearance_lit, "dil": dil,
-                "ridge_area": ridge and opt.template_supersample > 1, "ridge_lit": ridge and opt.interior_ridge_lit}
+                "ridge_area": ridge and opt.template_supersample > 1, "ridge_lit": ridge and opt.interior_ridge_lit,
+                "table": self._edge_table_plane()}
+
+    def _edge_table_plane(self) -> tuple[np.ndarray, float] | None:
+        """The support plane (world n, d) of the current poses (:func:`refine.table.support_plane`)
+        when ``RefineOptions.edge_table_mm`` > 0 applies to this bundle, else None: f_edge then has no
+        contour samples that close to the table (:func:`refine.templates.near_plane`)."""
+        pb, opt = self.pb, self.opt
+        if not (self.edge_table and opt.edge_table_mm > 0.0):
+            return None
+        known = [j for j in range(len(pb.obj_ids)) if pb.obj_known[j] and np.all(np.isfinite(pb.T_m[j]))]
+        if len(known) < 3:
+            return None
+        pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
+        plane = support_plane(pts, np.stack([inv_T(T)[:3, 3] for T in pb.T_c]))
+        return None if plane is None else (np.asarray(plane[0], np.float64), float(plane[1]))
 
     def _submit_edge_job(self, i: int, vr: ViewRender, eo: dict):
         """View i's f_edge candidates (and its lit template) on the thread pool: a Future of
@@ -259,6 +275,11 @@ class _Stage:
         if eo["ridge_area"] and vr.area_color is not None:
             kw = dict(kw, interior_color=vr.area_color)
         ridge_lit = bool(eo["ridge_lit"] and vr.normal is not None)
+        if eo.get("table") is not None:
+            n_w, d_w = eo["table"]
+            R, t = self.pb.T_c[i][:3, :3], self.pb.T_c[i][:3, 3]
+            n_c = R @ n_w
+            kw = dict(kw, table_plane=(n_c, d_w + float(n_c @ t), self.pb.views[i].K, self.opt.edge_table_mm))
         return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] or ridge_lit else None,
                                    self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
                                    eo["app"], ridge_lit, self.opt.shading_rim_px)
@@ -1477,6 +1498,8 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     # "narrow": narrow-baseline bundles; "medium": those and the medium group (baseline < WIDE_BASELINE_DEG)
     lit_groups = {"narrow": ("narrow",), "medium": ("narrow", "medium")}
     stage.appearance = stage.appearance or group_now in lit_groups.get(opt.edge_appearance, ())
+    stage.edge_table = opt.edge_table_mm > 0.0 and group_now in _groups(opt.edge_table_groups)
+    stats["edge_table"] = stage.edge_table
     stage.shading = stage.shading or group_now in lit_groups.get(opt.template_shading, ())
     stats["edge_appearance"], stats["template_shading"] = stage.appearance, stage.shading
     base = (4.0, 2.0, 1.0) if narrow else (8.0, 4.0, 2.0, 1.0)
@@ -1534,7 +1557,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                               where=f"scene {scene.scene_id}")
     group_specs = {"bias_removal_groups": opt.bias_removal_groups, "supersample_groups": opt.supersample_groups,
                    "interior_ridge_groups": opt.interior_ridge_groups, "point_openness_groups": opt.point_openness_groups,
-                   "point_scale_groups": opt.point_scale_groups}
+                   "point_scale_groups": opt.point_scale_groups, "edge_table_groups": opt.edge_table_groups}
     if isinstance(opt.edge_across_only, str):
         group_specs["edge_across_only"] = opt.edge_across_only
     if isinstance(opt.axis_hold, str):
@@ -1561,7 +1584,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
             and np.isfinite(opt.table_contact_sigma_mm) and opt.table_contact_sigma_mm > 0.0):
         raise YcbvssError(f"RefineOptions.table_contact_sigma_mm must be a finite number > 0, got "
                           f"{opt.table_contact_sigma_mm!r}", where=f"scene {scene.scene_id}")
-    for name in ("edge_contact_mm", "edge_junction_px", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
+    for name in ("edge_contact_mm", "edge_table_mm", "edge_junction_px", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
                  "ridge_fallback_mm", "ridge_fallback_speed", "edge_contact_offset_k", "contact_offset_mm", "point_min_openness"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):

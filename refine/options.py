@@ -124,6 +124,11 @@ class RefineOptions:
     # clips with touching objects too (long-1 from the GT 0.380 -> 0.352 mm): the tables of record
     # would all have to be re-measured
     edge_contact_mm: float = 0.0
+    # > 0: no contour samples less than this (mm) above the table (the support plane of the current
+    # poses, refine.table.support_plane), on bundles of the groups in edge_table_groups: where an object
+    # meets the table its contact shadow and occlusion shading move the image's edge (session 67)
+    edge_table_mm: float = 0.0
+    edge_table_groups: str = "narrow,medium,wide"
     # > 0: no f_edge contour samples within this many px (640-px-wide images; scaled with the width)
     # of where their object borders a nearer one (T-junctions, refine.edge.junction_mask): there the
     # image's edge field mixes the occluder's edge with the object's own. 3 px is the reach of the
