@@ -279,7 +279,8 @@ class _Stage:
             n_w, d_w = eo["table"]
             R, t = self.pb.T_c[i][:3, :3], self.pb.T_c[i][:3, 3]
             n_c = R @ n_w
-            kw = dict(kw, table_plane=(n_c, d_w + float(n_c @ t), self.pb.views[i].K, self.opt.edge_table_mm))
+            kw = dict(kw, table_plane=(n_c, d_w + float(n_c @ t), self.pb.views[i].K, self.opt.edge_table_mm,
+                                       self.opt.edge_table_offset))
         return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] or ridge_lit else None,
                                    self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
                                    eo["app"], ridge_lit, self.opt.shading_rim_px)
@@ -1592,6 +1593,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not opt.point_min_openness <= 1.0:
         raise YcbvssError(f"RefineOptions.point_min_openness must be a share of the sky in [0, 1], got "
                           f"{opt.point_min_openness!r}", where=f"scene {scene.scene_id}")
+    if opt.edge_table_offset and not (opt.edge_table_mm > 0.0 and opt.edge_contact_offset_k > 0.0):
+        raise YcbvssError("RefineOptions.edge_table_offset needs edge_table_mm > 0 and edge_contact_offset_k > 0 "
+                          "(the table's contour samples share the contact-offset nuisance)", where=f"scene {scene.scene_id}")
     if opt.edge_contact_offset_k > 0.0 and opt.edge_dilation_k > 0.0:
         raise YcbvssError("RefineOptions.edge_contact_offset_k and edge_dilation_k cannot both be on (one "
                           "contour nuisance per group)", where=f"scene {scene.scene_id}")

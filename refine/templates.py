@@ -280,9 +280,12 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     ``vr.area_color``; None: ``vr.color``)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
                                         contact_mm=contact_mm, junction_px=junction_px)
+    at_table = None
     if table_plane is not None and len(uv_c):
-        keep = ~near_plane(uv_c, d_c, *table_plane)
-        uv_c, d_c, l_c = uv_c[keep], d_c[keep], l_c[keep]
+        at_table = near_plane(uv_c, d_c, *table_plane[:4])
+        if not (len(table_plane) > 4 and table_plane[4]):      # kept, sharing one offset (see below), or dropped
+            uv_c, d_c, l_c = uv_c[~at_table], d_c[~at_table], l_c[~at_table]
+            at_table = None
     if blur_sigma_px is not None:
         geo = uv_c
         uv_c = match_contour_to_blur(uv_c, l_c, vr.instance, blur_sigma_px)
@@ -299,8 +302,11 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                                          texture_ridge_sigma_px=interior_ridge_sigma_px)
     n_c = contour_normals(uv_c, l_c, vr.instance, blur_sigma_px or 1.0) if normals else None
     if n_c is not None and normals_contact_mm > 0.0:
-        n_c[~contact_samples(vr.instance, vr.depth_mm, geo if blur_sigma_px is not None else uv_c, n_c, l_c,
-                             normals_contact_mm)] = 0.0
+        on_line = contact_samples(vr.instance, vr.depth_mm, geo if blur_sigma_px is not None else uv_c, n_c, l_c,
+                                  normals_contact_mm)
+        if at_table is not None:
+            on_line = on_line | at_table
+        n_c[~on_line] = 0.0
     return EdgeCandidates(uv_c, d_c, l_c, uv_i, d_i, l_i, n_c)
 
 

@@ -85,7 +85,8 @@ def test_point_openness_resolves_by_the_scenes_baseline_group():
                                        ({"point_min_openness": -0.1}, "point_min_openness"),
                                        ({"edge_table_mm": -1.0}, "edge_table_mm"),
                                        ({"edge_table_mm": float("nan")}, "edge_table_mm"),
-                                       ({"edge_table_groups": "medim"}, "edge_table_groups")])
+                                       ({"edge_table_groups": "medim"}, "edge_table_groups"),
+                                       ({"edge_table_mm": 10.0, "edge_table_offset": True}, "edge_table_offset")])
 def test_a_bad_point_openness_option_is_an_error_naming_it(kw, match):
     with pytest.raises(YcbvssError, match=match):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**kw))
