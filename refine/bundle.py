@@ -262,10 +262,7 @@ class _Stage:
         if not (self.edge_table and opt.edge_table_mm > 0.0):
             return None
         known = [j for j in range(len(pb.obj_ids)) if pb.obj_known[j] and np.all(np.isfinite(pb.T_m[j]))]
-        if len(known) < 3:
-            return None
-        pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
-        plane = support_plane(pts, np.stack([inv_T(T)[:3, 3] for T in pb.T_c]))
+        plane = self._support_plane(known)[0] if len(known) >= 3 else None
         return None if plane is None else (np.asarray(plane[0], np.float64), float(plane[1]))
 
     def _submit_edge_job(self, i: int, vr: ViewRender, eo: dict):
@@ -279,8 +276,8 @@ class _Stage:
             n_w, d_w = eo["table"]
             R, t = self.pb.T_c[i][:3, :3], self.pb.T_c[i][:3, 3]
             n_c = R @ n_w
-            kw = dict(kw, table_plane=(n_c, d_w + float(n_c @ t), self.pb.views[i].K, self.opt.edge_table_mm,
-                                       self.opt.edge_table_offset))
+            kw = dict(kw, table_plane=(n_c, d_w + float(n_c @ t), self.pb.views[i].K, self.opt.edge_table_mm),
+                      table_offset=self.opt.edge_table_offset)
         return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] or ridge_lit else None,
                                    self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
                                    eo["app"], ridge_lit, self.opt.shading_rim_px)
@@ -431,6 +428,16 @@ class _Stage:
         decide the support plane of :func:`refine.table.support_plane`."""
         return [np.asarray(self.models[oid].mesh.convex_hull.vertices, np.float64) for oid in self.pb.obj_ids]
 
+    def _support_plane(self, known: list[int]) -> tuple[tuple | None, list[np.ndarray]]:
+        """The support plane (:func:`refine.table.support_plane`: unit n, d, objects touching) of the
+        objects ``known`` at their current poses, seen from the current cameras, or None; and those
+        objects' hull points in world coordinates (mm)."""
+        pb = self.pb
+        pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
+        if not pts:
+            return None, pts
+        return support_plane(pts, np.stack([inv_T(T)[:3, 3] for T in pb.T_c])), pts
+
     def _table_rotation_term(self, renders: dict) -> TableRotationTerm:
         """The table's measured relative rotations of the temporal pairs (``table_flow``):
         matched and measured once per level (:func:`refine.table.table_rotation`), each pair
@@ -450,10 +457,7 @@ class _Stage:
                     if v not in renders:
                         renders[v] = self.render(v)
                 if plane is None:
-                    known = [j for j in range(len(pb.obj_ids)) if pb.obj_known[j]]
-                    pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
-                    centres = np.stack([inv_T(T)[:3, 3] for T in pb.T_c])
-                    plane = (support_plane(pts, centres) if pts else None) or False
+                    plane = self._support_plane([j for j in range(len(pb.obj_ids)) if pb.obj_known[j]])[0] or False
                 H_pred = predicted_homography(pb.views[k].K, pb.views[i].K, pb.T_c[k], pb.T_c[i], plane[0],
                                               plane[1]) if plane else None
                 n_k = pb.T_c[k][:3, :3] @ plane[0] if plane else None
@@ -491,9 +495,7 @@ class _Stage:
         self.stats["table_normal_sigma_deg"] = round(sig_deg, 4)
         if not sig_deg <= self.opt.table_contact_normal_deg:
             return None
-        pts = [self.hull_points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3] for j in known]
-        centres = np.stack([inv_T(T)[:3, 3] for T in pb.T_c])
-        plane = support_plane(pts, centres)
+        plane, pts = self._support_plane(known)
         if plane is None:
             return None
         n_cur, d_cur, _ = plane

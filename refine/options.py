@@ -134,8 +134,8 @@ class RefineOptions:
     # contour goes), tz 0.266 -> 0.293 mm, 16 -> 15 of 21 objects (bench/results/ycbv21/table_edge_s67)
     edge_table_mm: float = 0.0
     edge_table_groups: str = "narrow,medium,wide"
-    # with edge_table_mm: those samples are kept and share the contact-offset nuisance of
-    # edge_contact_offset_k (which must be > 0) instead of being dropped
+    # with edge_table_mm: those samples are kept instead of being dropped, and at the finest level,
+    # where that nuisance applies, share the contact-offset nuisance of edge_contact_offset_k (> 0)
     edge_table_offset: bool = False
     # > 0: no f_edge contour samples within this many px (640-px-wide images; scaled with the width)
     # of where their object borders a nearer one (T-junctions, refine.edge.junction_mask): there the

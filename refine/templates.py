@@ -252,7 +252,7 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          contact_mm: float = 0.0, normals_contact_mm: float = 0.0,
                          junction_px: float = 0.0, interior_ridge_sigma_px: float = 0.0,
                          interior_color: np.ndarray | None = None,
-                         table_plane: tuple | None = None) -> EdgeCandidates:
+                         table_plane: tuple | None = None, table_offset: bool = False) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -277,13 +277,15 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     (T-junctions, :func:`ycbvss.refine.edge.junction_mask`). ``interior_ridge_sigma_px`` > 0: interior
     texture candidates located on the template's own edge field at that blur
     (:func:`ycbvss.refine.edge.ridge_edges`), in ``interior_color`` (e.g. the pixel-area template
-    ``vr.area_color``; None: ``vr.color``)."""
+    ``vr.area_color``; None: ``vr.color``). ``table_plane`` (n_c, d_c, K, height_mm): no contour
+    samples less than that high above the table plane (:func:`near_plane`); with ``table_offset``
+    they are kept and, with ``normals_contact_mm`` > 0, keep their normals like contact-line samples."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
                                         contact_mm=contact_mm, junction_px=junction_px)
     at_table = None
     if table_plane is not None and len(uv_c):
-        at_table = near_plane(uv_c, d_c, *table_plane[:4])
-        if not (len(table_plane) > 4 and table_plane[4]):      # kept, sharing one offset (see below), or dropped
+        at_table = near_plane(uv_c, d_c, *table_plane)
+        if not table_offset:                    # dropped; else kept, sharing one offset (see below)
             uv_c, d_c, l_c = uv_c[~at_table], d_c[~at_table], l_c[~at_table]
             at_table = None
     if blur_sigma_px is not None:

@@ -46,9 +46,10 @@ def test_contour_samples_near_the_table_are_left_out():
 
 def test_offset_mode_keeps_the_table_samples_and_gives_only_them_normals():
     vr = _block()
-    plane = (np.array([0.0, -1.0, 0.0]), -29.0, K, 10.0, True)
+    plane = (np.array([0.0, -1.0, 0.0]), -29.0, K, 10.0)
     c0 = view_edge_candidates(vr, blur_sigma_px=None)
-    c1 = view_edge_candidates(vr, blur_sigma_px=None, table_plane=plane, normals=True, normals_contact_mm=1e-3)
+    c1 = view_edge_candidates(vr, blur_sigma_px=None, table_plane=plane, table_offset=True, normals=True,
+                              normals_contact_mm=1e-3)
     assert len(c1.uv_c) == len(c0.uv_c)
     h = -(c1.uv_c[:, 1] - 25.0) * 2.0 * (c1.d_c / 1000.0) + 29.0
     has_n = np.any(c1.n_c != 0.0, axis=1)
