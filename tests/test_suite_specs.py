@@ -3,7 +3,9 @@ from __future__ import annotations
 
 from collections import Counter
 
-from ycbvss.pipeline.suite import SUITES, YCBV21, YCBV21_FRESH, clips_of
+import pytest
+
+from ycbvss.pipeline.suite import SUITES, YCBV21, clips_of
 
 
 def test_ycbv21_has_every_object_in_three_scenes_with_four_to_seven_each():
@@ -12,12 +14,14 @@ def test_ycbv21_has_every_object_in_three_scenes_with_four_to_seven_each():
     assert all(4 <= len(s.obj_ids) <= 7 for s in YCBV21)
 
 
-def test_fresh_scenes_are_sealed_new_and_cover_every_object_twice():
+@pytest.mark.parametrize("suite", ["ycbv21-fresh", "ycbv21-fresh2"])
+def test_fresh_scenes_are_sealed_new_and_cover_every_object_twice(suite):
+    YCBV21_FRESH = SUITES[suite]
     n = Counter(o for s in YCBV21_FRESH for o in s.obj_ids)
     assert sorted(n) == list(range(1, 22)) and set(n.values()) == {2}, n
     assert all(s.held_out for s in YCBV21_FRESH)
     # no scene id or layout seed shared with another suite: their renders and layouts are new
-    others = [s for name, specs in SUITES.items() if name != "ycbv21-fresh" for s in specs]
+    others = [s for name, specs in SUITES.items() if name != suite for s in specs]
     assert not {s.scene_id for s in YCBV21_FRESH} & {s.scene_id for s in others}
     assert not {s.seed for s in YCBV21_FRESH} & {s.seed for s in others}
     assert all(len(set(s.obj_ids)) == len(s.obj_ids) == 7 for s in YCBV21_FRESH)

@@ -91,7 +91,18 @@ YCBV21_FRESH = (
     SuiteScene(35, (4, 7, 9, 17, 18, 20, 21), 60, 20.0, 135, held_out=True),
     SuiteScene(36, (2, 3, 5, 6, 8, 11, 14), 60, 20.0, 136, held_out=True),
 )
-SUITES = {"ycbv21": YCBV21, "ycbv21-ci": YCBV21_CI, "ycbv21-fresh": YCBV21_FRESH}
+# A second sealed set (added in session 68, 2026-12-04, after 67 sessions of choices made on ycbv21
+# and, since session 62, partly on ycbv21-fresh): seeds 141-146, the objects drawn likewise with
+# numpy default_rng(2027), every object in two scenes. Refined only to report.
+YCBV21_FRESH2 = (
+    SuiteScene(41, (2, 3, 5, 8, 11, 14, 15), 60, 20.0, 141, held_out=True),
+    SuiteScene(42, (1, 6, 7, 10, 12, 13, 20), 60, 20.0, 142, held_out=True),
+    SuiteScene(43, (4, 9, 16, 17, 18, 19, 21), 60, 20.0, 143, held_out=True),
+    SuiteScene(44, (1, 6, 10, 15, 16, 18, 21), 60, 20.0, 144, held_out=True),
+    SuiteScene(45, (3, 4, 7, 8, 11, 13, 19), 60, 20.0, 145, held_out=True),
+    SuiteScene(46, (2, 5, 9, 12, 14, 17, 20), 60, 20.0, 146, held_out=True),
+)
+SUITES = {"ycbv21": YCBV21, "ycbv21-ci": YCBV21_CI, "ycbv21-fresh": YCBV21_FRESH, "ycbv21-fresh2": YCBV21_FRESH2}
 HELD_OUT_SEED_MIN = 5
 SHORT = tuple(range(0, 22, 3))
 MEDIUM = tuple(range(0, 60, 2))
