@@ -1412,6 +1412,9 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     if opt.point_min_openness > 0 and group not in _groups(opt.point_openness_groups):
         opt = dc_replace(opt, point_min_openness=0.0)
     stats["point_min_openness"] = float(opt.point_min_openness)
+    if group not in _groups(opt.contact_groups) and (opt.edge_contact_mm > 0.0 or opt.contact_weight > 0.0):
+        opt = dc_replace(opt, edge_contact_mm=0.0, contact_weight=0.0)
+    stats["edge_contact_mm"], stats["contact_weight"] = float(opt.edge_contact_mm), float(opt.contact_weight)
     if group is None or group not in _groups(opt.bias_removal_groups):
         return opt
     stats["bias_removal"] = True
@@ -1560,7 +1563,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                               where=f"scene {scene.scene_id}")
     group_specs = {"bias_removal_groups": opt.bias_removal_groups, "supersample_groups": opt.supersample_groups,
                    "interior_ridge_groups": opt.interior_ridge_groups, "point_openness_groups": opt.point_openness_groups,
-                   "point_scale_groups": opt.point_scale_groups, "edge_table_groups": opt.edge_table_groups}
+                   "point_scale_groups": opt.point_scale_groups, "edge_table_groups": opt.edge_table_groups,
+                   "contact_groups": opt.contact_groups}
     if isinstance(opt.edge_across_only, str):
         group_specs["edge_across_only"] = opt.edge_across_only
     if isinstance(opt.axis_hold, str):

@@ -164,6 +164,9 @@ class RefineOptions:
     # (suite medium-5 and -7 from the paper's init, seed 0: bit-identical with it)
     contact_weight: float = 0.0
     contact_tol_mm: float = 1.0
+    # edge_contact_mm and contact_weight apply to the scenes whose keyframe baseline group is in
+    # this list ("" none); elsewhere both are 0
+    contact_groups: str = "narrow,medium,wide"
     # f_point's templates (and, with edge_appearance, the contour's appearance prediction) lit by
     # the lighting fitted to each view's image (refine.shading: SH order 2, Lambertian). At the
     # exact GT (bench/bench_template_shading.py, scenes 1, 2, 4-7) the flow matches' rms

@@ -3,6 +3,8 @@ BIAS_REMOVAL, the rim-depth lift of the contour samples and area-integrated f_po
 (refine.bundle._scene_options)."""
 from types import SimpleNamespace
 
+from dataclasses import replace as dc_replace
+
 import numpy as np
 import pytest
 
@@ -79,6 +81,16 @@ def test_point_openness_resolves_by_the_scenes_baseline_group():
     assert got == {"wide": 0.7, "medium": 0.0, "narrow": 0.7}
 
 
+def test_the_contact_pair_resolves_by_the_scenes_baseline_group():
+    opt = RefineOptions(edge_contact_mm=10.0, contact_weight=1.0, contact_groups="medium,wide")
+    got = {name: (o.edge_contact_mm, o.contact_weight, st["edge_contact_mm"], st["contact_weight"])
+           for name, o, st in _resolved(opt)}
+    assert got == {"wide": (10.0, 1.0, 10.0, 1.0), "medium": (10.0, 1.0, 10.0, 1.0), "narrow": (0.0, 0.0, 0.0, 0.0)}
+    assert (opt.edge_contact_mm, opt.contact_weight) == (10.0, 1.0)          # the caller's options untouched
+    got = {name: o.contact_weight for name, o, _ in _resolved(dc_replace(opt, contact_groups=""))}
+    assert got == {"wide": 0.0, "medium": 0.0, "narrow": 0.0}
+
+
 @pytest.mark.parametrize("kw, match", [({"point_openness_groups": "mediun"}, "point_openness_groups"),
                                        ({"point_scale_groups": "wdie"}, "point_scale_groups"),
                                        ({"point_min_openness": 1.5}, "point_min_openness"),
@@ -86,6 +98,7 @@ def test_point_openness_resolves_by_the_scenes_baseline_group():
                                        ({"edge_table_mm": -1.0}, "edge_table_mm"),
                                        ({"edge_table_mm": float("nan")}, "edge_table_mm"),
                                        ({"edge_table_groups": "medim"}, "edge_table_groups"),
+                                       ({"contact_groups": "wid"}, "contact_groups"),
                                        ({"edge_table_mm": 10.0, "edge_table_offset": True}, "edge_table_offset")])
 def test_a_bad_point_openness_option_is_an_error_naming_it(kw, match):
     with pytest.raises(YcbvssError, match=match):
