@@ -36,13 +36,20 @@ from .terms import Linearization
 @dataclass
 class ContactSurface:
     """Dense surface samples of one model (model frame, mm): points (N, 3), outward unit normals
-    (N, 3), their KD-tree, and the bounding sphere (centre (3,), radius mm) of the points."""
+    (N, 3), their KD-tree, the bounding sphere (centre (3,), radius mm) of the points and their
+    axis-aligned box in the model frame (corners ``lo``, ``hi`` (3,), mm; None: computed here)."""
 
     points: np.ndarray
     normals: np.ndarray
     tree: cKDTree
     centre: np.ndarray
     radius_mm: float
+    lo: np.ndarray | None = None
+    hi: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.lo is None or self.hi is None:
+            self.lo, self.hi = self.points.min(axis=0), self.points.max(axis=0)
 
     def signed_distance(self, Y: np.ndarray, k: int = 8, inside_share: float = 0.75) -> tuple[np.ndarray, np.ndarray]:
         """Point-to-plane signed distance (mm, negative inside) of points Y (M, 3) in the model
@@ -63,6 +70,33 @@ class ContactSurface:
             idx = idx.reshape(len(neg), -1)
             dk = np.einsum("mkj,mkj->mk", Y[neg][:, None, :] - self.points[idx], self.normals[idx])
             d[neg[(dk < 0).mean(axis=1) < inside_share]] = 0.0
+        return d, n
+
+    def penetration_depth(self, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(depth inside (M,) mm, >= 0, 0 outside; normals (M, 3)) of points Y (M, 3) in the model
+        frame: -:meth:`signed_distance` where that is negative. Points outside the samples'
+        axis-aligned box cannot be inside the surface and are not looked up (most of the points a
+        :class:`ContactGroup` holds, which reach the other object's bounding sphere plus a
+        margin): depth 0, normal 0."""
+        Y = np.asarray(Y, np.float64).reshape(-1, 3)
+        p = np.zeros(len(Y))
+        n = np.zeros((len(Y), 3))
+        q = np.flatnonzero(np.all((Y >= self.lo) & (Y <= self.hi), axis=1))
+        if len(q):
+            dq, n[q] = self.signed_distance(Y[q])
+            p[q] = np.maximum(-dq, 0.0)
+        return p, n
+        Yq = Y[q]
+        _, i0 = self.tree.query(Yq)
+        nq = self.normals[i0]
+        dq = np.einsum("ij,ij->i", Yq - self.points[i0], nq)
+        neg = np.flatnonzero(dq < 0)         # the vote only where the nearest plane says inside
+        if len(neg):
+            _, idx = self.tree.query(Yq[neg], k=k)
+            idx = idx.reshape(len(neg), -1)
+            dk = np.einsum("mkj,mkj->mk", Yq[neg][:, None, :] - self.points[idx], self.normals[idx])
+            dq[neg[(dk < 0).mean(axis=1) < inside_share]] = 0.0
+        d[q], n[q] = dq, nq
         return d, n
 
 
@@ -112,8 +146,8 @@ class ContactTerm:
         Tj, Tk = pb.T_m[gr.j], pb.T_m[gr.other]
         W = gr.X @ Tj[:3, :3].T + Tj[:3, 3]
         Y = (W - Tk[:3, 3]) @ Tk[:3, :3]                 # R_k^T (W - t_k)
-        d, n = self.surfaces[gr.other].signed_distance(Y)
-        return -d - self.tol_mm, W, n @ Tk[:3, :3].T
+        p, n = self.surfaces[gr.other].penetration_depth(Y)
+        return p - self.tol_mm, W, n @ Tk[:3, :3].T
 
     def cost(self, pb: BundleProblem) -> float:
         tot = 0.0
