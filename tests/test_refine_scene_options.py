@@ -49,7 +49,7 @@ def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, 
     # edge_rim_depth, table_flow and table_contact bools that stay, template_supersample 1: nothing else to resolve
     opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1,
                         table_flow=False, table_contact=False, edge_across_only=False, axis_hold=False,
-                        point_min_openness=0.0)
+                        point_min_openness=0.0, edge_contact_mm=0.0, contact_weight=0.0)
     for name, got, stats in _resolved(opt):
         assert stats["bias_removal"] is (name in removed)
         if name in removed:
@@ -82,7 +82,7 @@ def test_point_openness_resolves_by_the_scenes_baseline_group():
 
 
 def test_the_contact_pair_resolves_by_the_scenes_baseline_group():
-    opt = RefineOptions(edge_contact_mm=10.0, contact_weight=1.0, contact_groups="medium,wide")
+    opt = RefineOptions()                                     # defaults: 10 mm and weight 1 on medium and wide bundles
     got = {name: (o.edge_contact_mm, o.contact_weight, st["edge_contact_mm"], st["contact_weight"])
            for name, o, st in _resolved(opt)}
     assert got == {"wide": (10.0, 1.0, 10.0, 1.0), "medium": (10.0, 1.0, 10.0, 1.0), "narrow": (0.0, 0.0, 0.0, 0.0)}
