@@ -121,7 +121,7 @@ class RefineOptions:
     # (2026-12-04, bench/results/ycbv21/README.md, paired with the same runs without it) it is not:
     # ycbv21 medium 1-9, seeds 0, 1, 5, tx/ty/tz/R/PRJ 0.083/0.108/0.300/0.234/0.140 -> 0.082/0.083/
     # 0.291/0.196/0.122 (held out 0.082/0.090/0.286/0.209/0.123 -> 0.081/0.069/0.271/0.184/0.109; the
-    # foam brick ty 0.69 -> 0.20 mm, R 1.49 -> 0.84 deg; 15 of 21 objects meeting every target either
+    # foam brick ty 0.70 -> 0.21 mm, R 1.59 -> 0.83 deg; 15 of 21 objects meeting every target either
     # way); ycbv21-fresh medium 31-36, seeds 0, 1: 0.073/0.064/0.352/0.199/0.104 -> 0.072/0.062/0.354/
     # 0.197/0.103, 15 -> 16 of 21 (the tuna can); long 1-3, seed 0, from the exact GT and the paper's init
     # bit for bit the same (their scenes stack nothing: no contact line within 10 mm in their frames);
