@@ -85,3 +85,19 @@ def test_real_scans_no_false_inside_and_solid_interiors_found(ycbv_root):
         if m.name in solid:
             d_in, _ = s.signed_distance(s.points[i] - 2.0 * s.normals[i])
             assert np.mean(d_in < -0.5) >= 0.98, m.name
+
+
+def test_penetration_depth_skips_only_points_that_cannot_be_inside():
+    s = contact_surface(trimesh.creation.box(extents=(100.0, 100.0, 100.0)))
+    rng = np.random.default_rng(3)
+    Y = rng.uniform(-80.0, 80.0, size=(4000, 3))                 # about 1 in 4 inside the box
+    p, n = s.penetration_depth(Y)
+    d, n_ref = s.signed_distance(Y)
+    inside_box = np.all(np.abs(Y) <= 50.0, axis=1)
+    # inside the samples' box: exactly the signed distance's depth; outside: 0 without a lookup
+    assert np.array_equal(p[inside_box], np.maximum(-d[inside_box], 0.0))
+    assert np.array_equal(n[inside_box], n_ref[inside_box])
+    assert np.all(p[~inside_box] == 0.0) and np.all(n[~inside_box] == 0.0)
+    # and the signed distance agrees that those points are not inside
+    assert np.all(d[~inside_box] >= 0.0)
+    assert 0.15 < inside_box.mean() < 0.35 and np.all(p >= 0.0) and p.max() > 10.0
