@@ -36,7 +36,7 @@ from .templates import (EdgeCandidates, ViewRender, area_template, composite, en
                         render_view, select_edge_samples, view_edge_candidates, with_area)
 from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
                     table_rotation, whitening)
-from .table_contact import TableContactTerm, mean_normal, normal_sigma_deg
+from .table_contact import TableContactTerm, lowest_point, mean_normal, normal_sigma_deg, stacked_gap
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, shift_limit_px, sigma_add_mm,
@@ -508,7 +508,32 @@ class _Stage:
         self.stats["table_contact_objects"] = len(touching)
         if len(touching) < 3:
             return None
-        return TableContactTerm(n_w, touching, sigma_mm=self.opt.table_contact_sigma_mm)
+        stacked = self._stacked_pairs(known, [j for j, _ in touching], n_w) if self.opt.stack_rest else []
+        self.stats["stacked_objects"] = len(stacked)
+        return TableContactTerm(n_w, touching, sigma_mm=self.opt.table_contact_sigma_mm, stacked=stacked)
+
+    def _stacked_pairs(self, known: list[int], on_table: list[int], n_w: np.ndarray) -> list[tuple]:
+        """(j, j's hull vertices, k, k's contact surface) for each object j of ``known`` that does not
+        touch the table but whose lowest hull point along ``n_w`` lies within TOUCH_MM of the
+        surface of another known object k whose own lowest point is lower (j stands on k; the
+        nearest such k)."""
+        pb = self.pb
+        surfaces = self.contact_surfaces[0]
+        low = {j: lowest_point(pb.T_m[j], self.hull_points[j], n_w)[0] for j in known}
+        out = []
+        for j in known:
+            if j in on_table:
+                continue
+            best = None
+            for k in known:
+                if k == j or not low[k] < low[j]:
+                    continue
+                gap = stacked_gap(pb.T_m[j], self.hull_points[j], pb.T_m[k], surfaces[k], n_w)[0]
+                if abs(gap) < TOUCH_MM and (best is None or abs(gap) < best[0]):
+                    best = (abs(gap), k)
+            if best is not None:
+                out.append((j, self.hull_points[j], best[1], surfaces[best[1]]))
+        return out
 
     def _register_gauge(self, terms: list, sopt: SolverOptions, stage: str) -> None:
         """Fit the first (gauge) camera alone to the rest of the bundle -- its own terms only, every

@@ -423,6 +423,16 @@ class RefineOptions:
     # YCBV-SS datasets (enlarged models; ycbvss.pipeline.datasets.enlarged_model_scales)
     table_contact: bool | str = "narrow,medium"
     table_contact_sigma_mm: float = 0.5
+    # with table contact: an object standing on another one instead of the table (its lowest hull
+    # point within TOUCH_MM of the other's surface) is held on it, two-sided, with the same sigma
+    # (refine.table_contact.stacked_gap). Why: with its contact line out of f_edge (edge_contact_mm)
+    # nothing holds such an object down along its line of sight; the sealed ycbv21-fresh2 medium-42's
+    # tuna can on the pudding box ended 8.7 mm too near (`uncertain`, session 68). Off: measured on the
+    # development stacks (session 68, paper init, paired with the same runs without it) it is worse:
+    # ycbv21 medium-4 (foam brick on the sugar box), seeds 0, 1, 5, tx/ty/tz/R/PRJ 0.062/0.104/0.211/
+    # 0.277/0.130 -> 0.077/0.144/0.305/0.410/0.173 (the brick's R 1.1 -> 2.1 deg); ycbv21-fresh medium-36
+    # (tuna can on the cracker box), seeds 0, 1, tz 0.078 -> 0.200 mm; medium-6 unchanged (no pair found)
+    stack_rest: bool = False
     # table contact only where the averaged table normal is measured this well (deg, its combined
     # 1-sigma, refine.table_contact.normal_sigma_deg): a tilt of 0.05 deg over a 300 mm scene is
     # 0.26 mm of height, half table_contact_sigma_mm

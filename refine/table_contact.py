@@ -62,19 +62,44 @@ def normal_sigma_deg(covs: list[np.ndarray]) -> float:
     return float(np.degrees(np.sqrt(1.0 / sum(inv)))) if inv else float("inf")
 
 
+def stacked_gap(T_j: np.ndarray, X_j: np.ndarray, T_k: np.ndarray, surface_k, n: np.ndarray
+                ) -> tuple[float, np.ndarray, np.ndarray]:
+    """How far (mm) the lowest of object j's hull points ``X_j`` along the unit normal ``n`` (world)
+    lies above object k's surface (``surface_k``: a :class:`refine.contact.ContactSurface`, model
+    frame of k), measured point-to-plane at k's nearest surface sample (negative: inside k): the
+    gap, the lowest point W (3,) and k's surface normal there (3,), both in the world."""
+    _, W = lowest_point(T_j, X_j, n)
+    Y = (W - T_k[:3, 3]) @ T_k[:3, :3]
+    d, nk = surface_k.signed_distance(Y[None])
+    return float(d[0]), W, T_k[:3, :3] @ nk[0]
+
+
 @dataclass
 class TableContactTerm:
     """The touching objects' lowest points held to one plane of the measured normal (module
-    docstring). ``groups``: (object index j, convex-hull vertices (N, 3) mm, model frame)."""
+    docstring). ``groups``: (object index j, convex-hull vertices (N, 3) mm, model frame).
+    ``stacked``: (j, its hull vertices, k, k's :class:`refine.contact.ContactSurface`) for an object
+    j standing on object k instead of the table (``RefineOptions.stack_rest``): the gap of
+    :func:`stacked_gap` is held to 0 (two-sided, same sigma), so j neither sinks into k nor lifts
+    off it along its line of sight when its contour on k is left out of f_edge."""
 
     normal_w: np.ndarray
     groups: list = field(default_factory=list)
     sigma_mm: float = 0.5
     weight: float = 1.0
     name: str = "table_contact"
+    stacked: list = field(default_factory=list)
 
     def n_obs(self) -> int:
-        return max(len(self.groups) - 1, 0)
+        return max(len(self.groups) - 1, 0) + len(self.stacked)
+
+    def _stacked_gaps(self, pb: BundleProblem) -> list[tuple[int, int, float, np.ndarray, np.ndarray]]:
+        out = []
+        for j, X, k, surf in self.stacked:
+            if np.all(np.isfinite(pb.T_m[j])) and np.all(np.isfinite(pb.T_m[k])):
+                gap, W, nk = stacked_gap(pb.T_m[j], X, pb.T_m[k], surf, self.normal_w)
+                out.append((j, k, gap, W, nk))
+        return out
 
     def _heights(self, pb: BundleProblem) -> list[tuple[int, float, np.ndarray]]:
         """(object index, lowest height, lowest point) of the objects whose pose is finite: a pose
@@ -89,17 +114,27 @@ class TableContactTerm:
     def cost(self, pb: BundleProblem) -> float:
         hs = np.array([h for _, h, _ in self._heights(pb)])
         m = len(hs)
-        if m < 2:
-            return 0.0
-        return self.weight * float(m * np.sum((hs - hs.mean()) ** 2)) / (m * self.sigma_mm ** 2)
+        c = self.weight * float(m * np.sum((hs - hs.mean()) ** 2)) / (m * self.sigma_mm ** 2) if m >= 2 else 0.0
+        for _, _, gap, _, _ in self._stacked_gaps(pb):
+            c += self.weight * (gap / self.sigma_mm) ** 2
+        return c
 
     def linearize(self, pb: BundleProblem) -> tuple[float, list]:
         from .terms import Linearization
         low = self._heights(pb)
         m = len(low)
         out, total = [], 0.0
+        for j, k, gap, W, nk in self._stacked_gaps(pb):
+            e = gap / self.sigma_mm
+            total += e * e
+            Ja = np.zeros((1, 2, 6))
+            Ja[0, 0] = np.r_[nk, np.cross(W, nk)] / self.sigma_mm     # the point moves with j ...
+            A = np.zeros((1, 2, 2))
+            A[0, 0, 0] = 2.0 * self.weight
+            g = np.array([[2.0 * self.weight * e, 0.0]])
+            out.append(Linearization(int(pb.obj_block[j]), int(pb.obj_block[k]), Ja, -Ja, A, g))  # ... k's surface with k
         if m < 2:
-            return 0.0, out
+            return self.weight * total, out
         s = self.sigma_mm * np.sqrt(m)
         n = self.normal_w
         jac = [np.r_[n, np.cross(W, n)] / s for _, _, W in low]
