@@ -86,18 +86,6 @@ class ContactSurface:
             dq, n[q] = self.signed_distance(Y[q])
             p[q] = np.maximum(-dq, 0.0)
         return p, n
-        Yq = Y[q]
-        _, i0 = self.tree.query(Yq)
-        nq = self.normals[i0]
-        dq = np.einsum("ij,ij->i", Yq - self.points[i0], nq)
-        neg = np.flatnonzero(dq < 0)         # the vote only where the nearest plane says inside
-        if len(neg):
-            _, idx = self.tree.query(Yq[neg], k=k)
-            idx = idx.reshape(len(neg), -1)
-            dk = np.einsum("mkj,mkj->mk", Yq[neg][:, None, :] - self.points[idx], self.normals[idx])
-            dq[neg[(dk < 0).mean(axis=1) < inside_share]] = 0.0
-        d[q], n[q] = dq, nq
-        return d, n
 
 
 _SURFACES: dict[int, tuple[object, ContactSurface]] = {}
