@@ -36,6 +36,7 @@ from .templates import (EdgeCandidates, ViewRender, area_template, composite, en
                         render_view, select_edge_samples, view_edge_candidates, with_area)
 from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
                     table_rotation, whitening)
+from . import table_rest
 from .table_contact import TableContactTerm, lowest_point, mean_normal, normal_sigma_deg, stacked_gap
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import turned_wrong
@@ -194,6 +195,8 @@ class _Stage:
                 t = self._table_contact_term()
                 if t is not None:
                     terms.append(t)
+                    if opt.table_rest:
+                        terms.append(self._table_rest_term(t))
         if opt.axis_hold and not self.at_finest and self._T_m_starts:
             t = self._axis_hold_term()
             if t is not None:
@@ -511,6 +514,21 @@ class _Stage:
         stacked = self._stacked_pairs(known, [j for j, _ in touching], n_w) if self.opt.stack_rest else []
         self.stats["stacked_objects"] = len(stacked)
         return TableContactTerm(n_w, touching, sigma_mm=self.opt.table_contact_sigma_mm, stacked=stacked)
+
+    def _table_rest_term(self, contact: TableContactTerm) -> table_rest.TableRestTerm:
+        """The objects ``contact`` holds to the table, each held on its nearest stable face
+        (``RefineOptions.table_rest``, :mod:`refine.table_rest`)."""
+        acc = float(self.opt.table_rest_acc_mm)
+        groups = []
+        for j, _ in contact.groups:
+            m = self.models[self.pb.obj_ids[j]]
+            axis = None
+            if m.symmetries_continuous:
+                a = np.asarray(m.symmetries_continuous[0]["axis"], np.float64)
+                axis = a / np.linalg.norm(a)
+            groups.append((j, table_rest.model_rest_faces(m.mesh, acc), axis))
+        self.stats["table_rest_objects"] = len(groups)
+        return table_rest.TableRestTerm(contact.normal_w, groups)
 
     def _stacked_pairs(self, known: list[int], on_table: list[int], n_w: np.ndarray) -> list[tuple]:
         """(j, j's hull vertices, k, k's contact surface) for each object j of ``known`` that does not
@@ -1428,8 +1446,13 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     contact = (group in _groups(opt.table_contact)) if isinstance(opt.table_contact, str) else bool(opt.table_contact and opt.table_flow)
     if contact is not opt.table_contact:
         opt = dc_replace(opt, table_contact=contact)
+    if isinstance(opt.table_rest, str):          # likewise; only with table contact
+        opt = dc_replace(opt, table_rest=group in _groups(opt.table_rest))
+    if opt.table_rest and not opt.table_contact:
+        opt = dc_replace(opt, table_rest=False)
     stats["table_flow"] = bool(opt.table_flow)
     stats["table_contact"] = bool(opt.table_contact)
+    stats["table_rest"] = bool(opt.table_rest)
     stats["edge_rim_depth"] = bool(opt.edge_rim_depth)
     if opt.template_supersample > 1 and group not in _groups(opt.supersample_groups):
         opt = dc_replace(opt, template_supersample=1)
@@ -1594,6 +1617,15 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         group_specs["edge_across_only"] = opt.edge_across_only
     if isinstance(opt.axis_hold, str):
         group_specs["axis_hold"] = opt.axis_hold
+    if isinstance(opt.table_rest, str):
+        group_specs["table_rest"] = opt.table_rest
+    elif not isinstance(opt.table_rest, bool):
+        raise YcbvssError(f"RefineOptions.table_rest must be True, False or a list of baseline groups, got "
+                          f"{opt.table_rest!r}", where=f"scene {scene.scene_id}")
+    if not (isinstance(opt.table_rest_acc_mm, (int, float, np.floating)) and not isinstance(opt.table_rest_acc_mm, bool)
+            and np.isfinite(opt.table_rest_acc_mm) and opt.table_rest_acc_mm > 0.0):
+        raise YcbvssError(f"RefineOptions.table_rest_acc_mm must be a finite number > 0, got "
+                          f"{opt.table_rest_acc_mm!r}", where=f"scene {scene.scene_id}")
     if opt.interior_sharpness_bundles != "all":
         group_specs["interior_sharpness_bundles"] = opt.interior_sharpness_bundles
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):

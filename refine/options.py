@@ -433,6 +433,13 @@ class RefineOptions:
     # 0.277/0.130 -> 0.077/0.144/0.305/0.410/0.173 (the brick's R 1.1 -> 2.1 deg); ycbv21-fresh medium-36
     # (tuna can on the cracker box), seeds 0, 1, tz 0.078 -> 0.200 mm; medium-6 unchanged (no pair found)
     stack_rest: bool = False
+    # with table contact: each object touching the table held on its nearest stable face of the
+    # convex hull (refine.table_rest: its tilt whitened by a plane fit through the face's contact
+    # points, each uncertain by table_rest_acc_mm, the models' accuracy; Geman-McClure at 3 sigma so
+    # an object not resting on a face is let go). True / False or a comma-separated list of
+    # baseline groups (with table contact on them)
+    table_rest: bool | str = False
+    table_rest_acc_mm: float = 1.0
     # table contact only where the averaged table normal is measured this well (deg, its combined
     # 1-sigma, refine.table_contact.normal_sigma_deg): a tilt of 0.05 deg over a 300 mm scene is
     # 0.26 mm of height, half table_contact_sigma_mm

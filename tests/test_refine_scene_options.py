@@ -182,7 +182,8 @@ def test_a_bad_contact_option_is_an_error_naming_it(name, bad):
                                 dict(ridge_fallback_mm=-1.0), dict(ridge_fallback_speed=float("nan")), dict(table_contact_sigma_mm=0.0),
                                 dict(table_contact_sigma_mm=float("inf")), dict(table_contact_sigma_mm="0.5"),
                                 dict(table_contact_normal_deg=0.0), dict(table_contact_normal_deg=float("nan")),
-                                dict(table_contact="long")])
+                                dict(table_contact="long"), dict(table_rest="long"), dict(table_rest=1),
+                                dict(table_rest_acc_mm=0.0), dict(table_rest_acc_mm=float("nan")), dict(table_rest_acc_mm="1")])
 def test_a_bad_table_option_is_an_error_naming_it(kw):
     with pytest.raises(YcbvssError, match=next(iter(kw))):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**kw))
@@ -208,6 +209,16 @@ def test_table_contact_is_resolved_per_scene_with_or_without_the_table_flow(flow
         assert got.table_contact is (name in on)
         assert stats["table_contact"] is (name in on)
     assert opt.table_contact == contact
+
+
+@pytest.mark.parametrize("contact, rest, on", [("narrow,medium", "narrow,medium", {"narrow", "medium"}),
+                                               ("medium", "narrow,medium", {"medium"}), ("narrow,medium", True, {"narrow", "medium"}),
+                                               ("narrow,medium", False, set()), (False, True, set())])
+def test_table_rest_is_resolved_per_scene_and_only_with_table_contact(contact, rest, on):
+    opt = RefineOptions(table_contact=contact, table_rest=rest)
+    for name, got, stats in _resolved(opt):
+        assert got.table_rest is (name in on)
+        assert stats["table_rest"] is (name in on)
 
 
 def test_an_unknown_table_flow_group_is_an_error_naming_the_option():
