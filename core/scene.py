@@ -30,7 +30,9 @@ class ObjectModel:
     ``unit_scale``: factor that converts the file's length unit to millimetres (1 for BOP PLY
     in mm, 1000 for YCB-Video OBJ in metres). ``symmetries_discrete``: list of 4x4 (mm);
     ``symmetries_continuous``: list of dicts ``{"axis": [3], "offset": [3] (mm)}`` (BOP format).
-    ``symmetric``: use ADD-S for this object in the ADD(-S) protocol.
+    ``symmetric``: use ADD-S for this object in the ADD(-S) protocol. ``rest_points_mm``: optional
+    (N, 3) points (mm, this model's frame) of another model of the same object whose convex hull
+    gives its resting faces (:mod:`ycbvss.refine.table_rest`) instead of this mesh's hull.
     """
 
     obj_id: int
@@ -43,6 +45,7 @@ class ObjectModel:
     symmetric: bool = False
     textureless: bool = False
     info: dict = field(default_factory=dict)
+    rest_points_mm: object | None = field(default=None, repr=False)
     _mesh: object | None = field(default=None, repr=False)
     _loader: Callable | None = field(default=None, repr=False)
 

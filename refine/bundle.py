@@ -526,7 +526,7 @@ class _Stage:
             if m.symmetries_continuous:
                 a = np.asarray(m.symmetries_continuous[0]["axis"], np.float64)
                 axis = a / np.linalg.norm(a)
-            groups.append((j, table_rest.model_rest_faces(m.mesh, acc), axis))
+            groups.append((j, table_rest.object_rest_faces(m, acc), axis))
         self.stats["table_rest_objects"] = len(groups)
         return table_rest.TableRestTerm(contact.normal_w, groups)
 

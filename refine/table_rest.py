@@ -104,6 +104,22 @@ def model_rest_faces(mesh, acc_mm: float = 1.0) -> RestFaces:
     return per[acc_mm]
 
 
+_POINTS: dict = {}     # (id of a points array, acc) -> (the array, its RestFaces)
+
+
+def object_rest_faces(model, acc_mm: float = 1.0) -> RestFaces:
+    """The resting faces of an :class:`ycbvss.scene.ObjectModel`: of its ``rest_points_mm`` (another
+    model of the object) when given, else of its mesh (:func:`model_rest_faces`)."""
+    pts = getattr(model, "rest_points_mm", None)
+    if pts is None:
+        return model_rest_faces(model.mesh, acc_mm)
+    key = (id(pts), float(acc_mm))
+    hit = _POINTS.get(key)
+    if hit is None or hit[0] is not pts:
+        hit = _POINTS[key] = (pts, rest_faces(np.asarray(pts, np.float64), acc_mm))
+    return hit[1]
+
+
 def tilt(R: np.ndarray, faces: RestFaces, n_w: np.ndarray) -> tuple[int, np.ndarray]:
     """(index of the face nearest to resting, its tilt tau (2,) rad) of an object at orientation
     ``R`` (model to world) on a plane of upward unit normal ``n_w`` (world)."""

@@ -46,10 +46,10 @@ def _resolved(opt):
 @pytest.mark.parametrize("groups, removed", [("medium,wide", {"wide", "medium"}), ("wide", {"wide"}),
                                              ("", set()), ("narrow", {"narrow"})])
 def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, removed):
-    # edge_rim_depth, table_flow and table_contact bools that stay, template_supersample 1: nothing else to resolve
+    # edge_rim_depth, table_flow, table_contact and table_rest bools that stay, template_supersample 1: nothing else to resolve
     opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1,
                         table_flow=False, table_contact=False, edge_across_only=False, axis_hold=False,
-                        point_min_openness=0.0, edge_contact_mm=0.0, contact_weight=0.0)
+                        point_min_openness=0.0, edge_contact_mm=0.0, contact_weight=0.0, table_rest=False)
     for name, got, stats in _resolved(opt):
         assert stats["bias_removal"] is (name in removed)
         if name in removed:
@@ -219,6 +219,11 @@ def test_table_rest_is_resolved_per_scene_and_only_with_table_contact(contact, r
     for name, got, stats in _resolved(opt):
         assert got.table_rest is (name in on)
         assert stats["table_rest"] is (name in on)
+
+
+def test_the_default_holds_the_rest_faces_on_narrow_and_medium_scenes():
+    got = {name: o.table_rest for name, o, _ in _resolved(RefineOptions())}
+    assert got == {"wide": False, "medium": True, "narrow": True}
 
 
 def test_an_unknown_table_flow_group_is_an_error_naming_the_option():

@@ -101,3 +101,33 @@ def test_a_lying_cylinder_keeps_its_turn_about_its_axis():
             assert c_sym > 1.0 and np.isclose(c_sym, c_plain, rtol=0.05)
         else:
             assert c_sym < 1e-9 < c_plain
+
+
+def test_the_suite_takes_the_resting_faces_from_the_official_points(ycbv_root, tmp_path):
+    # the suite's scenes stand on faces of the scanned mesh; the prior must come from another model
+    from ycbvss.io.ycbv import load_ycbv_models
+    from ycbvss.pipeline.suite import attach_official_points
+    from ycbvss.refine.table_rest import object_rest_faces
+
+    ycbv = load_ycbv_models(ycbv_root)
+    models = {o: ycbv[o] for o in (10, 21)}                       # banana, foam brick (YCB-V frame, not BOP's)
+    attach_official_points(models, ycbv_root)
+    for o, m in models.items():
+        P = m.rest_points_mm
+        assert P is not None and P.shape[1] == 3 and len(P) > 1000
+        mesh = m.mesh
+        # the official model and the scan share the object's frame: the BOP frame is the YCB-V
+        # frame moved by the model's centre, which the attached points carry
+        from ycbvss.io.ycbv import model_center_mm
+        gap = np.abs(np.r_[P.min(0), P.max(0)] - (mesh.bounds - model_center_mm(m.path)).ravel()).max()
+        assert gap < 1.5
+        own, other = object_rest_faces(SimpleModel(mesh)), object_rest_faces(m)
+        assert other is not own and len(other.prob) >= 3
+        # every likely face of the scan has a face of the official model within 1 deg
+        ang = np.degrees(np.arccos(np.clip((own.down[own.prob > 0.1] @ other.down.T).max(axis=1), -1, 1)))
+        assert ang.max() < 1.0
+
+
+class SimpleModel:
+    def __init__(self, mesh):
+        self.mesh, self.rest_points_mm = mesh, None

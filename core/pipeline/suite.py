@@ -158,7 +158,27 @@ def suite_models(src: str | Path, root: Path, obj_ids=None) -> dict:
     missing = [o for o in need if o not in models]
     if missing:
         raise YcbvssError(f"the suite needs the YCB-V models of obj_ids {missing}", mdir)
+    if src.exists() and is_ycbv_root(src):
+        attach_official_points(models, src)
     return models
+
+
+def attach_official_points(models: dict, ycbv_root: Path) -> None:
+    """Give each model the official YCB-Video ``points.xyz`` of its object (in the BOP model frame,
+    mm) as ``ObjectModel.rest_points_mm``, the model the refiner's resting-face prior
+    (``RefineOptions.table_rest``) takes its faces from. The suite's generator sets every object on
+    a stable face of exactly the mesh the refiner uses (``procedural.ycbv_scene.rest_poses``), so a
+    prior from that mesh would be exact here as on no real table; the official model lies about 1 mm
+    from the scan (``../shared/data/SOURCES.md``), the disagreement a real object has with its model.
+    Objects without the file keep their own mesh's faces."""
+    import numpy as np
+
+    from ..io.ycbv import model_center_mm
+
+    for oid, m in load_ycbv_models(ycbv_root).items():
+        p = Path(m.info.get("points_xyz", ""))
+        if oid in models and p.is_file():
+            models[oid].rest_points_mm = np.loadtxt(p, dtype=np.float64).reshape(-1, 3) * 1000.0 - model_center_mm(m.path)
 
 
 def build_scene(spec: SuiteScene, models: dict, root: Path, width: int = 640, height: int = 480,
