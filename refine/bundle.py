@@ -511,6 +511,7 @@ class _Stage:
         self.stats["table_contact_objects"] = len(touching)
         if len(touching) < 3:
             return None
+        self._contact_known = known
         stacked = self._stacked_pairs(known, [j for j, _ in touching], n_w) if self.opt.stack_rest else []
         self.stats["stacked_objects"] = len(stacked)
         return TableContactTerm(n_w, touching, sigma_mm=self.opt.table_contact_sigma_mm, stacked=stacked)
@@ -519,8 +520,12 @@ class _Stage:
         """The objects ``contact`` holds to the table, each held on its nearest stable face
         (``RefineOptions.table_rest``, :mod:`refine.table_rest`)."""
         acc = float(self.opt.table_rest_acc_mm)
+        held = [j for j, _ in contact.groups]
+        if self.opt.table_rest_stacked:
+            # an object standing on one that stands on the table: on a box's top face, parallel to the table
+            held += [j for j, _, k, _ in self._stacked_pairs(self._contact_known, held, contact.normal_w) if k in held]
         groups = []
-        for j, _ in contact.groups:
+        for j in held:
             m = self.models[self.pb.obj_ids[j]]
             axis = None
             if m.symmetries_continuous:
@@ -1622,6 +1627,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     elif not isinstance(opt.table_rest, bool):
         raise YcbvssError(f"RefineOptions.table_rest must be True, False or a list of baseline groups, got "
                           f"{opt.table_rest!r}", where=f"scene {scene.scene_id}")
+    if not isinstance(opt.table_rest_stacked, bool):
+        raise YcbvssError(f"RefineOptions.table_rest_stacked must be True or False, got {opt.table_rest_stacked!r}",
+                          where=f"scene {scene.scene_id}")
     if not (isinstance(opt.table_rest_acc_mm, (int, float, np.floating)) and not isinstance(opt.table_rest_acc_mm, bool)
             and np.isfinite(opt.table_rest_acc_mm) and opt.table_rest_acc_mm > 0.0):
         raise YcbvssError(f"RefineOptions.table_rest_acc_mm must be a finite number > 0, got "

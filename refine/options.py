@@ -455,6 +455,15 @@ class RefineOptions:
     # (mm) how far a model's surface may lie from the real object's: the YCB-V scans lie about 1 mm
     # from the official models (../shared/data/SOURCES.md); not tuned
     table_rest_acc_mm: float = 1.0
+    # with table_rest: also an object standing on another that touches the table (its lowest hull
+    # point within 2 mm of that one's surface, refine.table_contact.stacked_gap), held on its nearest
+    # stable face with the table's normal -- the top face of a box lying on the table is parallel to it.
+    # Off: measured mixed (session 69, paper init, paired with the same runs without it): ycbv21
+    # medium-4 and -6 (the foam brick on the sugar box, the gelatin box on the potted meat can), seeds
+    # 0, 1, 5, tx/ty/tz/R/PRJ 0.077/0.100/0.423/0.227/0.132 -> 0.080/0.099/0.454/0.213/0.129 (the brick
+    # R 1.15 -> 0.93 deg but tz 0.37 -> 0.66 mm); short-4 and -6 0.158/0.182/0.946/0.216/0.193 ->
+    # 0.157/0.181/0.941/0.213/0.192
+    table_rest_stacked: bool = False
     # table contact only where the averaged table normal is measured this well (deg, its combined
     # 1-sigma, refine.table_contact.normal_sigma_deg): a tilt of 0.05 deg over a 300 mm scene is
     # 0.26 mm of height, half table_contact_sigma_mm

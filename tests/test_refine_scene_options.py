@@ -183,7 +183,8 @@ def test_a_bad_contact_option_is_an_error_naming_it(name, bad):
                                 dict(table_contact_sigma_mm=float("inf")), dict(table_contact_sigma_mm="0.5"),
                                 dict(table_contact_normal_deg=0.0), dict(table_contact_normal_deg=float("nan")),
                                 dict(table_contact="long"), dict(table_rest="long"), dict(table_rest=1),
-                                dict(table_rest_acc_mm=0.0), dict(table_rest_acc_mm=float("nan")), dict(table_rest_acc_mm="1")])
+                                dict(table_rest_acc_mm=0.0), dict(table_rest_acc_mm=float("nan")), dict(table_rest_acc_mm="1"),
+                                dict(table_rest_stacked="yes")])
 def test_a_bad_table_option_is_an_error_naming_it(kw):
     with pytest.raises(YcbvssError, match=next(iter(kw))):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**kw))
