@@ -420,8 +420,12 @@ class RefineOptions:
     # apparent-size depth biases (short clips 1-9, seeds 0 and 5: tz 1.463 -> 1.251 mm, objects
     # meeting every short target 12 -> 14 of 21, session 50; over seeds 0-9, session 51: tz 1.10 mm,
     # 14 of 21, against session 37's 1.38 mm, 11 of 21; bench/results/ycbv21/README.md). Off on
-    # YCBV-SS datasets (enlarged models; ycbvss.pipeline.datasets.enlarged_model_scales)
-    table_contact: bool | str = "narrow,medium"
+    # YCBV-SS datasets (enlarged models; ycbvss.pipeline.datasets.enlarged_model_scales). On wide
+    # (long) bundles too since session 69, with table_rest: long 1-3, seed 0, paired, from the paper's
+    # init tx/ty/tz/R/PRJ 0.068/0.053/0.273/0.115/0.088 -> 0.062/0.051/0.215/0.113/0.086, objects
+    # meeting every long target 19 -> 20 of 21 (held-out long-3 tz 0.379 -> 0.260 mm); from the exact
+    # GT 0.063/0.054/0.212/0.113/0.088 -> 0.061/0.051/0.167/0.109/0.085; every pose `converged` either way
+    table_contact: bool | str = "narrow,medium,wide"
     table_contact_sigma_mm: float = 0.5
     # with table contact: an object standing on another one instead of the table (its lowest hull
     # point within TOUCH_MM of the other's surface) is held on it, two-sided, with the same sigma
@@ -450,8 +454,9 @@ class RefineOptions:
     # 15 -> 16 (the foam brick R 0.83 -> 0.68 deg; the banana's depth 0.25 -> 0.35 mm), held out
     # 0.081/0.069/0.271/0.184/0.109 -> 0.081/0.067/0.267/0.169/0.107; `converged` 5490 -> 5460 of
     # 5613 (medium-1's large clamp at seed 1 "still drifting"). True / False or a comma-separated list
-    # of baseline groups (on those with table contact); bench/results/ycbv21/README.md session 69
-    table_rest: bool | str = "narrow,medium"
+    # of baseline groups (on those with table contact); on wide bundles with table contact there (see
+    # table_contact); bench/results/ycbv21/README.md session 69
+    table_rest: bool | str = "narrow,medium,wide"
     # (mm) how far a model's surface may lie from the real object's: the YCB-V scans lie about 1 mm
     # from the official models (../shared/data/SOURCES.md); not tuned
     table_rest_acc_mm: float = 1.0

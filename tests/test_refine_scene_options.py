@@ -222,9 +222,9 @@ def test_table_rest_is_resolved_per_scene_and_only_with_table_contact(contact, r
         assert stats["table_rest"] is (name in on)
 
 
-def test_the_default_holds_the_rest_faces_on_narrow_and_medium_scenes():
+def test_the_default_holds_the_rest_faces_on_every_scene_with_table_contact():
     got = {name: o.table_rest for name, o, _ in _resolved(RefineOptions())}
-    assert got == {"wide": False, "medium": True, "narrow": True}
+    assert got == {"wide": True, "medium": True, "narrow": True}
 
 
 def test_an_unknown_table_flow_group_is_an_error_naming_the_option():
