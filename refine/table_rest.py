@@ -64,7 +64,22 @@ def rest_faces(points_mm: np.ndarray, acc_mm: float = 1.0, center_mass_mm: np.nd
     each uncertain by ``acc_mm``."""
     import trimesh
 
-    hull = trimesh.points.PointCloud(np.asarray(points_mm, np.float64)).convex_hull
+    none = RestFaces(np.zeros((0, 3, 3)), np.zeros((0, 2, 2)), np.zeros(0))
+    P = np.asarray(points_mm, np.float64).reshape(-1, 3)
+    if len(P) < 4 or not np.all(np.isfinite(P)):
+        return none
+    # a flat or degenerate model has no volume to stand on (its centre of mass is undefined and
+    # trimesh's stable-pose search does not end on it): no faces, the term leaves it alone
+    with np.errstate(invalid="ignore", divide="ignore"):         # trimesh's mass properties of a flat hull
+        try:
+            hull = trimesh.points.PointCloud(P).convex_hull
+        except (QhullError, ValueError):
+            return none
+        solid = bool(hull.is_volume and hull.volume > 1e-9 * float(np.ptp(P, axis=0).max()) ** 3)
+    if not solid:
+        return none
+    if center_mass_mm is not None and not np.all(np.isfinite(center_mass_mm)):
+        center_mass_mm = None
     T, p = trimesh.poses.compute_stable_poses(hull, center_mass=center_mass_mm, n_samples=1, threshold=0.0, sigma=0.0)
     V = np.asarray(hull.vertices, np.float64)
     Rs, Ls, ps = [], [], []
@@ -90,17 +105,16 @@ def rest_faces(points_mm: np.ndarray, acc_mm: float = 1.0, center_mass_mm: np.nd
         Ls.append(np.linalg.cholesky(info))
         ps.append(float(pi))
     if not Rs:
-        return RestFaces(np.zeros((0, 3, 3)), np.zeros((0, 2, 2)), np.zeros(0))
+        return none
     return RestFaces(np.stack(Rs), np.stack(Ls), np.asarray(ps))
 
 
 def model_rest_faces(mesh, acc_mm: float = 1.0) -> RestFaces:
-    """:func:`rest_faces` of a trimesh model (its vertices, its hull's centre of mass), computed once
-    per mesh object and accuracy."""
+    """:func:`rest_faces` of a trimesh model's vertices (the centre of mass of their hull), computed
+    once per mesh object and accuracy."""
     per = _CACHE.setdefault(mesh, {})
     if acc_mm not in per:
-        hull = mesh.convex_hull
-        per[acc_mm] = rest_faces(np.asarray(mesh.vertices), acc_mm, np.asarray(hull.center_mass))
+        per[acc_mm] = rest_faces(np.asarray(mesh.vertices), acc_mm)   # the hull's own centre of mass
     return per[acc_mm]
 
 

@@ -131,3 +131,15 @@ def test_the_suite_takes_the_resting_faces_from_the_official_points(ycbv_root, t
 class SimpleModel:
     def __init__(self, mesh):
         self.mesh, self.rest_points_mm = mesh, None
+
+
+def test_a_flat_or_degenerate_model_has_no_faces_and_is_left_alone():
+    rng = np.random.default_rng(0)
+    flat = rng.random((50, 3)) * 100.0
+    flat[:, 2] = 0.0                                              # a plane: no volume, no centre of mass
+    for P in (flat, flat[:3], np.full((10, 3), np.nan)):
+        f = rest_faces(P)
+        assert len(f.prob) == 0 and f.R_rest.shape == (0, 3, 3)
+    pb, _ = _problem((2.0, 0.0))
+    term = TableRestTerm(UP, [(0, rest_faces(flat), None)])
+    assert term.cost(pb) == 0.0 and term.linearize(pb) == (0.0, [])
