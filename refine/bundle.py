@@ -1630,10 +1630,6 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not isinstance(opt.table_rest_stacked, bool):
         raise YcbvssError(f"RefineOptions.table_rest_stacked must be True or False, got {opt.table_rest_stacked!r}",
                           where=f"scene {scene.scene_id}")
-    if not (isinstance(opt.table_rest_acc_mm, (int, float, np.floating)) and not isinstance(opt.table_rest_acc_mm, bool)
-            and np.isfinite(opt.table_rest_acc_mm) and opt.table_rest_acc_mm > 0.0):
-        raise YcbvssError(f"RefineOptions.table_rest_acc_mm must be a finite number > 0, got "
-                          f"{opt.table_rest_acc_mm!r}", where=f"scene {scene.scene_id}")
     if opt.interior_sharpness_bundles != "all":
         group_specs["interior_sharpness_bundles"] = opt.interior_sharpness_bundles
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):
@@ -1648,14 +1644,10 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if not (isinstance(opt.table_points, int) and not isinstance(opt.table_points, bool) and opt.table_points >= 50):
         raise YcbvssError(f"RefineOptions.table_points must be an integer >= 50, got {opt.table_points!r}",
                           where=f"scene {scene.scene_id}")
-    if not (isinstance(opt.table_contact_normal_deg, (int, float, np.floating)) and not isinstance(opt.table_contact_normal_deg, bool)
-            and np.isfinite(opt.table_contact_normal_deg) and opt.table_contact_normal_deg > 0.0):
-        raise YcbvssError(f"RefineOptions.table_contact_normal_deg must be a finite number > 0, got "
-                          f"{opt.table_contact_normal_deg!r}", where=f"scene {scene.scene_id}")
-    if not (isinstance(opt.table_contact_sigma_mm, (int, float, np.floating)) and not isinstance(opt.table_contact_sigma_mm, bool)
-            and np.isfinite(opt.table_contact_sigma_mm) and opt.table_contact_sigma_mm > 0.0):
-        raise YcbvssError(f"RefineOptions.table_contact_sigma_mm must be a finite number > 0, got "
-                          f"{opt.table_contact_sigma_mm!r}", where=f"scene {scene.scene_id}")
+    for name in ("table_contact_normal_deg", "table_contact_sigma_mm", "table_rest_acc_mm"):
+        v = getattr(opt, name)
+        if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v > 0.0):
+            raise YcbvssError(f"RefineOptions.{name} must be a finite number > 0, got {v!r}", where=f"scene {scene.scene_id}")
     for name in ("edge_contact_mm", "edge_table_mm", "edge_junction_px", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
                  "ridge_fallback_mm", "ridge_fallback_speed", "edge_contact_offset_k", "contact_offset_mm", "point_min_openness"):
         v = getattr(opt, name)
