@@ -309,8 +309,7 @@ class _Stage:
         term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
                         curv_floor=opt.edge_curv_floor / sig,
                         dilation_k=(opt.edge_dilation_k or opt.edge_contact_offset_k) if eo["dil"] else 0.0,
-                        across_only=across_at_level(opt, next(iter(fields.values())).sigma_px if fields else 1.0,
-                                                    pb.views[0].width if pb.views else 640))
+                        across_only=opt.edge_across_only)
         self._t("edge_sampling_s", time.perf_counter() - t0)
         return term
 
@@ -1475,13 +1474,6 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     return dc_replace(opt, **BIAS_REMOVAL)
 
 
-def across_at_level(opt: RefineOptions, sigma_px: float, width_px: int) -> bool:
-    """Whether f_edge moves its samples only across their edges at a blur level of ``sigma_px`` (px)
-    in images ``width_px`` wide: ``opt.edge_across_only`` (resolved to a bool for the scene) and the
-    level no coarser than ``opt.edge_across_max_sigma_px`` (px at 640 px width)."""
-    return bool(opt.edge_across_only) and float(sigma_px) <= opt.edge_across_max_sigma_px * width_px / 640.0 + 1e-9
-
-
 def _keyframe_group(T_c_kf: np.ndarray, T_m_known: np.ndarray, min_baseline_deg: float) -> tuple[float, bool, str]:
     """A keyframe bundle's viewing baseline (deg, rounded to 0.001), whether it is refined as one
     viewpoint (one keyframe, or a baseline under ``min_baseline_deg``) and its baseline group."""
@@ -1651,10 +1643,6 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
                           where=f"scene {scene.scene_id}")
     if not (isinstance(opt.table_points, int) and not isinstance(opt.table_points, bool) and opt.table_points >= 50):
         raise YcbvssError(f"RefineOptions.table_points must be an integer >= 50, got {opt.table_points!r}",
-                          where=f"scene {scene.scene_id}")
-    v = opt.edge_across_max_sigma_px
-    if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and not np.isnan(v) and v > 0.0):
-        raise YcbvssError(f"RefineOptions.edge_across_max_sigma_px must be a number > 0 (inf: every level), got {v!r}",
                           where=f"scene {scene.scene_id}")
     for name in ("table_contact_normal_deg", "table_contact_sigma_mm", "table_rest_acc_mm"):
         v = getattr(opt, name)

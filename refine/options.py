@@ -2,7 +2,6 @@
 the measurement behind it) and what it returns (:class:`RefineResult`)."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 from .matching import FlowOptions
@@ -326,14 +325,6 @@ class RefineOptions:
     # and R worse at every seed), converged 0.78 -> 0.70 and ADD <= 2 mm among converged 0.992 -> 0.957:
     # with barely differing views the along-edge slope is part of what fixes depth and rotation.
     edge_across_only: bool | str = "medium,wide"
-    # the blur levels (sigma, px at 640 px width) at which edge_across_only applies: up to this; coarser
-    # levels keep E's slope along the edges too. Default inf: every level (session 59's behaviour).
-    # Why an option: bisected in session 70 (suite short-4 from PRJ 20 px, seed 0): 9322c19, which put
-    # edge_across_only on medium bundles, took short-4's capture from 14 to 0 of 56 poses (a short clip
-    # whose initial cameras, scattered by that error, look like a medium bundle), and long-1 from ADD
-    # 60 mm ends 0.906 within 2 mm against session 58's 0.970. The along-edge slope helps the coarse
-    # levels pull in; the bias it causes is an at-convergence effect of the finest level.
-    edge_across_max_sigma_px: float = math.inf
     # scenes whose keyframes the initial cameras see over a baseline of one of these groups
     # (comma-separated, of "narrow", "medium", "wide"; "": none) are refined with every appearance
     # bias measured so far removed together, for the whole scene (keyframes, non-keyframe cameras,

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from ycbvss.errors import YcbvssError
-from ycbvss.refine.bundle import (BIAS_REMOVAL, RefineOptions, _bundle_min_sharpness, _scene_options, across_at_level,
-                                  refine_scene)
+from ycbvss.refine.bundle import BIAS_REMOVAL, RefineOptions, _bundle_min_sharpness, _scene_options, refine_scene
 
 
 def _orbit(angles_deg: list[float], dist_mm: float = 1000.0) -> np.ndarray:
@@ -65,21 +64,6 @@ def test_edge_across_only_resolves_by_the_scenes_baseline_group():
     assert got == {"wide": (True, True), "medium": (True, True), "narrow": (False, False)}
     got = {name: o.edge_across_only for name, o, _ in _resolved(RefineOptions(edge_across_only="wide"))}
     assert got == {"wide": True, "medium": False, "narrow": False}
-
-
-@pytest.mark.parametrize("max_sigma, width, on", [(float("inf"), 640, {8.0, 4.0, 2.0, 1.0}), (1.5, 640, {1.0}),
-                                                   (2.5, 640, {2.0, 1.0}), (1.5, 320, set())])
-def test_edge_across_only_acts_at_the_blur_levels_up_to_its_max_sigma(max_sigma, width, on):
-    # levels of 8, 4, 2, 1 px: at 320 px width the 1.5 px bound (640 px scale) is 0.75 px, so none of them
-    opt = RefineOptions(edge_across_only=True, edge_across_max_sigma_px=max_sigma)
-    assert {s for s in (8.0, 4.0, 2.0, 1.0) if across_at_level(opt, s, width)} == on
-    assert not any(across_at_level(dc_replace(opt, edge_across_only=False), s, width) for s in (8.0, 1.0))
-
-
-@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), "1.5", True, None])
-def test_a_bad_edge_across_max_sigma_is_an_error_naming_the_option(bad):
-    with pytest.raises(YcbvssError, match="edge_across_max_sigma_px"):
-        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(edge_across_max_sigma_px=bad))
 
 
 def test_axis_hold_resolves_by_the_scenes_baseline_group():
