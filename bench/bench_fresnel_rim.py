@@ -35,43 +35,8 @@ def grazing_basis(normals: np.ndarray, to_cam: np.ndarray, power: float = 5.0) -
     return (1.0 - np.clip(np.sum(n * to_cam, -1), 0.0, 1.0)) ** power
 
 
-def fit_with_grazing(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray, F: np.ndarray,
-                     ridge: float = 1e-3, trim: float = 2.5, max_px: int = 40000) -> np.ndarray:
-    """(3, 10) per channel: the 9 SH coefficients of ``refine.shading.fit_shading`` and the weight of an
-    additive 255 F term (linear light), fitted jointly with the same trimmed refits."""
-    from ycbvss.refine.edge import srgb_to_linear
-    from ycbvss.refine.shading import _u8, sh9_basis
-
-    px = np.flatnonzero(mask)
-    alb, img = _u8(albedo.reshape(-1, 3)[px]), _u8(image.reshape(-1, 3)[px])
-    nrm = normals.reshape(-1, 3)[px].astype(np.float64)
-    nn = np.linalg.norm(nrm, axis=1)
-    lut = srgb_to_linear(np.arange(256, dtype=np.uint8))
-    ok = np.flatnonzero((nn > 0.5) & (lut[alb.min(1)] > 2.0) & (lut[img.max(1)] < 254.0))
-    if len(ok) > max_px:
-        ok = ok[np.random.default_rng(0).choice(len(ok), max_px, replace=False)]
-    a = srgb_to_linear(alb[ok]).astype(np.float64)
-    i = srgb_to_linear(img[ok]).astype(np.float64)
-    B = sh9_basis(nrm[ok] / nn[ok, None])
-    f = F.reshape(-1)[px][ok]
-    C = np.zeros((3, 10))
-    reg = np.full(10, ridge)
-    reg[[0, 9]] = 0.0
-    for c in range(3):
-        keep = np.ones(len(a), bool)
-        X0 = np.concatenate([a[:, c, None] * B, f[:, None] * 255.0], 1)
-        for _ in range(3):
-            X = X0[keep]
-            A = X.T @ X
-            A[np.diag_indices(10)] += reg * np.trace(A) / 10
-            C[c] = np.linalg.solve(A, X.T @ i[keep, c])
-            r = i[:, c] - X0 @ C[c]
-            keep = np.abs(r) <= trim * np.median(np.abs(r[keep])) + 1e-6
-    return C
-
-
 def shade_with_grazing(albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray, C: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """The template lit by ``C`` (3, 10) of :func:`fit_with_grazing` where ``mask``: (H, W, 3) uint8 sRGB."""
+    """The template lit by ``C`` (3, 10) of ``refine.shading.fit_shading(..., additive=F)`` where ``mask``: (H, W, 3) uint8 sRGB."""
     from ycbvss.refine.edge import srgb_to_linear
     from ycbvss.refine.shading import _linear_to_srgb_u8, sh9_basis
 
@@ -94,7 +59,7 @@ def main() -> None:
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.refine.contour_match import _minimum_along
     from ycbvss.refine.edge import edge_field
-    from ycbvss.refine.shading import lit_template
+    from ycbvss.refine.shading import fit_shading, lit_template
     from ycbvss.refine.templates import view_edge_candidates
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -110,7 +75,7 @@ def main() -> None:
         F = grazing_basis(vr.normal, view_dirs(fr.camera.K, *img.shape[:2]), a.power)
         obj = vr.instance > 0
         inner = cv2.erode(obj.astype(np.uint8), np.ones((2 * a.erode + 1,) * 2, np.uint8)).astype(bool)
-        C = fit_with_grazing(img, vr.color, vr.normal, inner, F)
+        C = fit_shading(img, vr.color, vr.normal, inner, additive=F)
         ks.append(C[:, 9])
         fld = edge_field(img, 1.0, colour=True)
         for mode, col in zip(MODES, (lit_template(vr.color, vr.normal, vr.instance, img),

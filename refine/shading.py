@@ -38,7 +38,8 @@ def _linear_to_srgb_u8(lin: np.ndarray) -> np.ndarray:
 
 
 def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask: np.ndarray,
-                ridge: float = 1e-3, trim: float = 2.5, max_px: int = 40000, seed: int = 0) -> np.ndarray | None:
+                ridge: float = 1e-3, trim: float = 2.5, max_px: int = 40000, seed: int = 0,
+                additive: np.ndarray | None = None) -> np.ndarray | None:
     """Per-channel SH coefficients (3, 9) with ``image ~ albedo * (B(n) @ c)`` in linear light.
 
     ``image``, ``albedo``: (H, W, 3) uint8 sRGB (the photo and the unlit template); ``normals``
@@ -46,7 +47,10 @@ def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask
     (object interiors, away from the silhouettes). ``ridge``: Tikhonov weight on the order-1/2
     coefficients relative to the data. ``trim``: refit twice without pixels whose residual exceeds
     ``trim`` x the median absolute residual (cast shadows, highlights, occluders the template lacks).
-    At most ``max_px`` pixels (a fixed random subset). None when fewer than 50 usable pixels."""
+    At most ``max_px`` pixels (a fixed random subset). None when fewer than 50 usable pixels.
+    ``additive`` (H, W): one more basis image, added independently of the albedo (as 255 x it, linear
+    light), fitted jointly; the result is then (3, 10), its last column that basis's weight (used by
+    ``bench/bench_fresnel_rim.py``)."""
     px = np.flatnonzero(np.asarray(mask, bool))                         # flat indices: faster than a 2D mask
     alb, img = _u8(np.asarray(albedo).reshape(-1, 3)[px]), _u8(np.asarray(image).reshape(-1, 3)[px])
     nrm = np.asarray(normals).reshape(-1, 3)[px].astype(np.float64)
@@ -64,18 +68,22 @@ def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask
     i = srgb_to_linear(img[ok]).astype(np.float64)
     n = nrm[ok] / nn[ok, None]
     B = sh9_basis(n)
-    C = np.zeros((3, N_SH))
-    reg = np.full(N_SH, ridge)
+    f = None if additive is None else 255.0 * np.asarray(additive, np.float64).reshape(-1)[px][ok]
+    k = N_SH + (f is not None)
+    C = np.zeros((3, k))
+    reg = np.full(k, ridge)
     reg[0] = 0.0
+    if f is not None:
+        reg[N_SH] = 0.0
     for c in range(3):
         keep = np.ones(len(a), bool)
-        aB = a[:, c, None] * B
+        aB = a[:, c, None] * B if f is None else np.concatenate([a[:, c, None] * B, f[:, None]], axis=1)
         for _ in range(3):
             X = np.compress(keep, aB, axis=0)
             A = X.T @ X
-            A[np.diag_indices(N_SH)] += reg * np.trace(A) / N_SH
+            A[np.diag_indices(k)] += reg * np.trace(A) / k
             C[c] = np.linalg.solve(A, X.T @ i[keep, c])
-            r = i[:, c] - a[:, c] * (B @ C[c])
+            r = i[:, c] - (a[:, c] * (B @ C[c]) if f is None else aB @ C[c])
             keep = np.abs(r) <= trim * np.median(np.abs(r[keep])) + 1e-6
             if keep.sum() < 50:
                 break
