@@ -365,6 +365,9 @@ class RefineOptions:
     max_extrapolate: int = 3          # line search: up to N doublings of an accepted Newton step
     extra_iters: int = 12             # finest level: up to N more outer iterations while a pose still drifts
     min_baseline_deg: float = 10.0    # keyframes seen within a narrower angle (from the init) start at the 4 px level
+    # refine the keyframe bundle again as the baseline group its refined cameras read, when that is
+    # not the group its initial cameras read (refine.bundle._regroup; far initial errors scatter them)
+    regroup: bool = True
     extend_mm: float = 0.1            # ... by more than this (mm) per outer iteration, in a steady direction
     n_matches: int = 1000
     match_erode_px: int = 6

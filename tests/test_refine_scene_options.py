@@ -1,6 +1,7 @@
 """RefineOptions.bias_removal_groups, edge_rim_depth and supersample_groups: which scenes get
 BIAS_REMOVAL, the rim-depth lift of the contour samples and area-integrated f_point templates
-(refine.bundle._scene_options)."""
+(refine.bundle._scene_options), and the second pass of a bundle whose refined cameras read another
+group (refine.bundle._regroup)."""
 from types import SimpleNamespace
 
 from dataclasses import replace as dc_replace
@@ -9,7 +10,9 @@ import numpy as np
 import pytest
 
 from ycbvss.errors import YcbvssError
-from ycbvss.refine.bundle import BIAS_REMOVAL, RefineOptions, _bundle_min_sharpness, _scene_options, refine_scene
+from ycbvss.refine import bundle as B
+from ycbvss.refine.bundle import (BIAS_REMOVAL, RefineOptions, _bundle_min_sharpness, _KeyframeSolution, _regroup,
+                                   _scene_options, refine_scene)
 
 
 def _orbit(angles_deg: list[float], dist_mm: float = 1000.0) -> np.ndarray:
@@ -255,3 +258,82 @@ def test_the_contact_offset_and_the_dilation_nuisance_cannot_both_be_on():
 def test_a_bad_contact_offset_option_is_an_error_naming_it(name):
     with pytest.raises(YcbvssError, match=name):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {}, RefineOptions(**{name: -1.0}))
+
+
+# RefineOptions.regroup: a keyframe bundle whose refined cameras read another baseline group than
+# its initial cameras is refined again as that group, and the second pass is kept only when its own
+# refined cameras confirm it (refine.bundle._regroup). The refinement itself is replaced by a
+# stand-in that returns cameras of a chosen baseline, so the decision is tested on its own.
+
+
+def _solution(angles_deg: list[float], group: str) -> _KeyframeSolution:
+    pb = _pb(angles_deg)
+    return _KeyframeSolution(pb.T_c, pb.T_m, SimpleNamespace(), group == "narrow", set(), {}, {}, {}, group=group)
+
+
+def _run(monkeypatch, first_angles, second_angles, first_group="medium"):
+    """_regroup after a first pass refined as ``first_group`` whose cameras read ``first_angles``;
+    a second pass, if asked for, returns cameras of ``second_angles``. Returns (solution, stats,
+    log, groups the stand-in was asked to refine as)."""
+    asked = []
+
+    def fake_refine_keyframes(views, models, obj_ids, known, pb0, kf, opt, log, stats, imgs, group=None):
+        asked.append(group)
+        stats["pass"] = "second"
+        log.append({"stage": "keyframes", "message": "second pass"})
+        return _solution(second_angles, group)
+
+    monkeypatch.setattr(B, "_refine_keyframes", fake_refine_keyframes)
+    opt = RefineOptions()
+    pb0 = _pb(first_angles)
+    known, kf = np.ones(3, bool), list(range(len(first_angles)))
+    stats0: dict = {"n_views": len(kf)}
+    stats = dict(stats0, **{"pass": "first"})
+    log: list = []
+    ks, _ = _regroup([], {}, [1, 2, 3], known, pb0, kf, opt, opt, _solution(first_angles, first_group), log, stats,
+                     stats0, None)
+    return ks, stats, log, asked
+
+
+def test_a_bundle_its_refined_cameras_confirm_is_not_refined_again(monkeypatch):
+    for angles, group in ((NARROW, "narrow"), (MEDIUM, "medium"), (WIDE, "wide")):
+        ks, stats, log, asked = _run(monkeypatch, angles, angles, group)
+        assert asked == [] and stats["regroup"] is None and stats["pass"] == "first" and log == []
+        assert ks.group == group
+
+
+def test_refined_again_as_the_group_the_refined_cameras_read_and_kept_when_confirmed(monkeypatch):
+    # refined as medium (scattered initial cameras), the refined cameras read 6 deg: narrow
+    ks, stats, log, asked = _run(monkeypatch, NARROW, NARROW, "medium")
+    assert asked == ["narrow"]
+    assert ks.group == "narrow" and ks.narrow
+    assert stats["pass"] == "second"
+    note = stats["regroup"]
+    assert note["first"] == "medium" and note["second"] == "narrow" and note["kept"] is True
+    assert abs(note["first_refined_deg"] - 6.0) < 0.01 and abs(note["second_refined_deg"] - 6.0) < 0.01
+    assert log[0]["stage"] == "regroup" and "kept" in log[0]["message"] and log[1]["message"] == "second pass"
+
+
+def test_the_first_pass_stands_when_the_second_does_not_confirm_its_group(monkeypatch):
+    # the second pass (as narrow) ends with cameras that read medium again
+    ks, stats, log, asked = _run(monkeypatch, NARROW, MEDIUM, "medium")
+    assert asked == ["narrow"]
+    assert ks.group == "medium" and stats["pass"] == "first"
+    assert stats["regroup"]["kept"] is False and stats["regroup"]["second"] == "narrow"
+    assert len(log) == 1 and "not kept" in log[0]["message"]
+
+
+def test_scene_options_resolve_a_given_group_instead_of_the_cameras_reading():
+    opt = RefineOptions(edge_across_only="medium,wide", axis_hold="narrow")
+    pb = _pb(MEDIUM)                      # the cameras read 20 deg
+    kf, known = list(range(len(MEDIUM))), np.ones(3, bool)
+    as_read = _scene_options(opt, pb, kf, known, {})
+    as_narrow = _scene_options(opt, pb, kf, known, {}, group="narrow")
+    assert as_read.edge_across_only is True and as_read.axis_hold is False
+    assert as_narrow.edge_across_only is False and as_narrow.axis_hold is True
+
+
+def test_orbit_baselines_used_here():
+    T_m = _pb(NARROW).T_m
+    for angles, deg in ((NARROW, 6.0), (MEDIUM, 20.0), (WIDE, 60.0)):
+        assert abs(B.viewing_baseline_deg(_orbit(angles), T_m) - deg) < 0.5
