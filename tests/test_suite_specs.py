@@ -26,3 +26,25 @@ def test_fresh_scenes_are_sealed_new_and_cover_every_object_twice(suite):
     assert not {s.seed for s in YCBV21_FRESH} & {s.seed for s in others}
     assert all(len(set(s.obj_ids)) == len(s.obj_ids) == 7 for s in YCBV21_FRESH)
     assert all({c.kind for c in clips_of(s)} == {"short", "medium"} for s in YCBV21_FRESH)
+
+
+def test_code_fingerprint_follows_the_code_not_its_comments_or_docstrings(tmp_path):
+    from ycbvss.pipeline.suite import code_fingerprint
+
+    a = tmp_path / "gen.py"
+    a.write_text('"""Module doc."""\ndef f(x):\n    """Doc."""\n    return x + 1  # one\n')
+    base = code_fingerprint([a])
+    a.write_text('"""Another module doc."""\n# a comment\ndef f(x):\n    """Other doc."""\n    return x + 1\n')
+    assert code_fingerprint([a]) == base
+    a.write_text('"""Module doc."""\ndef f(x):\n    """Doc."""\n    return x + 2\n')
+    assert code_fingerprint([a]) != base
+
+
+def test_every_generator_module_exists_and_enters_the_cache_key(monkeypatch):
+    import ycbvss.pipeline.suite as S
+
+    key = S.spec_hash(YCBV21[0], 640, 480, 12)
+    assert key == S.spec_hash(YCBV21[0], 640, 480, 12)
+    assert key != S.spec_hash(YCBV21[0], 640, 480, 16) and key != S.spec_hash(YCBV21[1], 640, 480, 12)
+    monkeypatch.setattr(S, "generator_fingerprint", lambda: "another generator")
+    assert S.spec_hash(YCBV21[0], 640, 480, 12) != key

@@ -11,7 +11,8 @@ Nine scenes of seven objects each; every object is in three scenes. Scenes 1-3 (
 Held out of every tuning run: scenes 3, 8 and 9 and initialisation seeds >= 5. The images come
 from Blender (Cycles, lit, glossy, the object textures of the YCB-V models); the refiner's own fast
 renderer draws only the table under them, never an object. Generation is deterministic and
-cached: a scene is rendered once, a re-run only refines.
+cached: a scene is rendered once, a re-run only refines; the cache key holds the scene's spec and
+the generator's code and Blender version (:func:`spec_hash`), so a changed generator renders again.
 """
 from __future__ import annotations
 
@@ -125,8 +126,64 @@ def rendered_frames(spec: SuiteScene) -> list[int]:
     return sorted({i for c in clips_of(spec) for i in c.im_ids}) or list(range(spec.n_frames))
 
 
+# The modules whose code shapes a suite scene's images and ground truth (paths under the package):
+# the layout and camera path, the Blender session and its outputs, the GT masks and visibilities.
+GENERATOR_MODULES = ("procedural/ycbv_scene.py", "procedural/layout.py", "procedural/scene.py",
+                     "procedural/textures.py", "procedural/io.py", "procedural/render.py",
+                     "pipeline/blender_scene.py", "gt_info.py", "synth/blender.py",
+                     "blender_scripts/session.py", "blender_scripts/worker.py", "blender_scripts/camera.py",
+                     "blender_scripts/outputs.py")
+
+
+def code_fingerprint(paths) -> str:
+    """A hash of the code of the Python files ``paths``: their syntax trees without docstrings, so
+    a changed comment or docstring keeps it and any changed statement changes it."""
+    import ast
+
+    h = hashlib.sha256()
+    for p in paths:
+        tree = ast.parse(Path(p).read_text())
+        for node in ast.walk(tree):
+            body = getattr(node, "body", None)
+            if (isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)) and body
+                    and isinstance(body[0], ast.Expr) and isinstance(getattr(body[0], "value", None), ast.Constant)
+                    and isinstance(body[0].value.value, str)):
+                node.body = body[1:] or [ast.Pass()]
+        h.update(Path(p).name.encode() + b"\0" + ast.dump(tree).encode() + b"\0")
+    return h.hexdigest()[:16]
+
+
+def generator_fingerprint() -> str:
+    """:func:`code_fingerprint` of :data:`GENERATOR_MODULES` (the installed package's files) and the
+    installed Blender module's version (Cycles changes between releases)."""
+    from importlib import metadata
+
+    import ycbvss
+    import ycbvss.blender_scripts
+    import ycbvss.synth
+
+    roots = {"synth": Path(ycbvss.synth.__file__).parent, "blender_scripts": Path(ycbvss.blender_scripts.__file__).parent}
+    core = Path(ycbvss.__file__).parent
+    files = []
+    for m in GENERATOR_MODULES:
+        head, _, rest = m.partition("/")
+        files.append(roots[head] / rest if head in roots else core / m)
+    try:
+        bpy_version = metadata.version("bpy")
+    except metadata.PackageNotFoundError:
+        bpy_version = "none"
+    return hashlib.sha256(f"{code_fingerprint(files)} bpy {bpy_version}".encode()).hexdigest()[:16]
+
+
 def spec_hash(spec: SuiteScene, width: int, height: int, samples: int) -> str:
-    blob = json.dumps({**asdict(spec), "width": width, "height": height, "samples": samples, "v": 1}, sort_keys=True)
+    """The cache key of a rendered suite scene: its spec, image size, samples and the generator's
+    code and Blender version (:func:`generator_fingerprint`). Without them a scene rendered by an
+    earlier generator was reused after the generator changed: nothing told the images apart. (Found
+    in session 71: session 69's suite rows do not reproduce with session 69's own code on the scenes
+    rendered again, which reproduce exactly from render to render; the earlier renders' origin is
+    not known.)"""
+    blob = json.dumps({**asdict(spec), "width": width, "height": height, "samples": samples, "v": 2,
+                       "code": generator_fingerprint()}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
