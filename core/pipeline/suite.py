@@ -178,10 +178,11 @@ def generator_fingerprint() -> str:
 def spec_hash(spec: SuiteScene, width: int, height: int, samples: int) -> str:
     """The cache key of a rendered suite scene: its spec, image size, samples and the generator's
     code and Blender version (:func:`generator_fingerprint`). Without them a scene rendered by an
-    earlier generator was reused after the generator changed: nothing told the images apart. (Found
-    in session 71: session 69's suite rows do not reproduce with session 69's own code on the scenes
-    rendered again, which reproduce exactly from render to render; the earlier renders' origin is
-    not known.)"""
+    earlier generator would be reused after the generator changed, and nothing would tell the
+    images apart. (Looked at in session 71: session 69's suite rows do not reproduce with session
+    69's own code on the scenes as rendered in session 70, while a frame rendered again today
+    matches session 70's bit for bit. The generator's code did not change in between, so which
+    images or environment session 69 refined is not known; the key now excludes the first cause.)"""
     blob = json.dumps({**asdict(spec), "width": width, "height": height, "samples": samples, "v": 2,
                        "code": generator_fingerprint()}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
