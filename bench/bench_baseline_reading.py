@@ -100,16 +100,16 @@ def centre_baseline_deg(obs: dict, n_views: int, n_objs: int, views: list[int] |
     centres: the largest angle between the directions from the layout's mean centre to any two
     fitted camera centres. None when fewer than two of those views have ``min_objects`` observed
     objects (the centres then do not fix a camera)."""
+    from ycbvss.refine.bundle import viewing_baseline_deg
+
     T_c, layout, fitted = centre_cameras(obs, n_views, n_objs, min_objects, Ks=Ks)
     idx = [i for i in (range(n_views) if views is None else views) if fitted[i]]
     placed = np.isfinite(layout[:, 0])
     if len(idx) < 2 or not placed.any():
         return None
-    Tc = T_c[idx]
-    cam = -np.einsum("nji,nj->ni", Tc[:, :3, :3], Tc[:, :3, 3])
-    d = cam - layout[placed].mean(axis=0)
-    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
-    return float(np.degrees(np.arccos(np.clip((d @ d.T).min(), -1.0, 1.0))))
+    T_m = np.tile(np.eye(4), (int(placed.sum()), 1, 1))
+    T_m[:, :3, 3] = layout[placed]
+    return viewing_baseline_deg(T_c[idx], T_m)
 
 
 def path_baseline_deg(cam_centres: np.ndarray, centre: np.ndarray) -> float:

@@ -126,13 +126,12 @@ def rendered_frames(spec: SuiteScene) -> list[int]:
     return sorted({i for c in clips_of(spec) for i in c.im_ids}) or list(range(spec.n_frames))
 
 
-# The modules whose code shapes a suite scene's images and ground truth (paths under the package):
-# the layout and camera path, the Blender session and its outputs, the GT masks and visibilities.
-GENERATOR_MODULES = ("procedural/ycbv_scene.py", "procedural/layout.py", "procedural/scene.py",
-                     "procedural/textures.py", "procedural/io.py", "procedural/render.py",
-                     "pipeline/blender_scene.py", "gt_info.py", "synth/blender.py",
-                     "blender_scripts/session.py", "blender_scripts/worker.py", "blender_scripts/camera.py",
-                     "blender_scripts/outputs.py")
+# The modules whose code shapes a suite scene's images and ground truth: the layout and camera
+# path, the Blender session and its outputs, the GT masks and visibilities.
+GENERATOR_MODULES = ("procedural.ycbv_scene", "procedural.layout", "procedural.scene", "procedural.textures",
+                     "procedural.io", "procedural.render", "pipeline.blender_scene", "gt_info", "synth.blender",
+                     "blender_scripts.session", "blender_scripts.worker", "blender_scripts.camera",
+                     "blender_scripts.outputs")
 
 
 def code_fingerprint(paths) -> str:
@@ -146,7 +145,7 @@ def code_fingerprint(paths) -> str:
         for node in ast.walk(tree):
             body = getattr(node, "body", None)
             if (isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)) and body
-                    and isinstance(body[0], ast.Expr) and isinstance(getattr(body[0], "value", None), ast.Constant)
+                    and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
                     and isinstance(body[0].value.value, str)):
                 node.body = body[1:] or [ast.Pass()]
         h.update(Path(p).name.encode() + b"\0" + ast.dump(tree).encode() + b"\0")
@@ -154,20 +153,12 @@ def code_fingerprint(paths) -> str:
 
 
 def generator_fingerprint() -> str:
-    """:func:`code_fingerprint` of :data:`GENERATOR_MODULES` (the installed package's files) and the
-    installed Blender module's version (Cycles changes between releases)."""
+    """:func:`code_fingerprint` of :data:`GENERATOR_MODULES` (the installed ``ycbvss`` modules'
+    files) and the installed Blender module's version (Cycles changes between releases)."""
     from importlib import metadata
+    from importlib.util import find_spec
 
-    import ycbvss
-    import ycbvss.blender_scripts
-    import ycbvss.synth
-
-    roots = {"synth": Path(ycbvss.synth.__file__).parent, "blender_scripts": Path(ycbvss.blender_scripts.__file__).parent}
-    core = Path(ycbvss.__file__).parent
-    files = []
-    for m in GENERATOR_MODULES:
-        head, _, rest = m.partition("/")
-        files.append(roots[head] / rest if head in roots else core / m)
+    files = [find_spec(f"ycbvss.{m}").origin for m in GENERATOR_MODULES]
     try:
         bpy_version = metadata.version("bpy")
     except metadata.PackageNotFoundError:
