@@ -23,6 +23,7 @@ from ..errors import YcbvssError
 from ..geometry.model_frame import bbox_center, recentre_pose
 from ..io.atomic import read_json, write_json_atomic, write_text_atomic
 from ..io.bop_dataset import targets_filename, write_camera_files, write_models_eval, write_targets
+from ..io.provenance import host_record
 from ..io.results import read_bop19_csv
 from ..progress import progress
 from .coverage import SCALE_GRID, TARGET, choose_scale
@@ -346,6 +347,9 @@ def _run(ds, layout, scene_loader, dataset, split, out: Path, poses, opts: Synth
     for sid in ds.scene_ids:
         _synth_scene(sid, scene_loader, split_dir, (layout, centres, overrides), opts, ex, config, acc, timing)
     report = build_report(inputs, opts, models_state, acc, {o: ds.models[o].name for o in obj_ids})
+    # the host that wrote the report (a resumed synthesis may have rendered earlier frames on another):
+    # Cycles' images can differ between hosts (ycbvss.io.provenance)
+    report["host"] = host_record()
     write_json_atomic(out / "synth_report.json", report)
     write_dataset_files(out, split, all_scales, ds.models)
     _print_timing(timing)

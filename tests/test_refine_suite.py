@@ -52,6 +52,11 @@ def test_suite_scene_is_what_the_issue_asks_for(suite_ci):
     assert 4.0 <= viewing_baseline_deg(Tc, Tm) < 10.0
     info = json.loads((scene.frames[0].rgb_path.parents[1] / "scene_gt_info.json").read_text())
     assert all(0 < g["visib_fract"] <= 1 for g in info["0"])
+    # the scene's marker names the images it rendered and the host that rendered them
+    from ycbvss.io.provenance import rgb_sha256
+    sdir = scene.frames[0].rgb_path.parents[1]
+    marker = json.loads((sdir / "suite_scene.json").read_text())
+    assert marker["rgb_sha256"] == rgb_sha256(sdir) and marker["rendered_on"]["cpu"]
 
 
 def test_short_clip_from_the_papers_initial_error(suite_ci):

@@ -85,3 +85,36 @@ def test_read_rows_reads_a_gzipped_rows_file_as_the_plain_one(tmp_path):
         dst.write(src.read())
     plain, packed = suite_run.read_rows(rows_path), suite_run.read_rows(tmp_path / "rows.csv.gz")
     assert packed == plain and plain[0]["obj_id"] == 3 and plain[0]["tz_mm"] == 3.0
+
+
+def test_suite_runs_record_their_host_options_and_images(tmp_path, monkeypatch):
+    """``execute`` writes provenance.json beside rows.csv: per call the refining host, the options
+    and the runs; per scene the digest of its images on disk and what its marker recorded."""
+    import json
+
+    from ycbvss.io.provenance import rgb_sha256
+
+    sdir = tmp_path / "root" / "test" / "000001"
+    (sdir / "rgb").mkdir(parents=True)
+    (sdir / "rgb" / "000000.png").write_bytes(b"image bytes")
+    digest = rgb_sha256(sdir)
+    (sdir / "suite_scene.json").write_text(json.dumps({"hash": "h1", "rgb_sha256": digest,
+                                                       "rendered_on": {"cpu": "renderer CPU"}}))
+
+    class _Clip:
+        scene_id, name = 1, "short-1"
+
+    class _Run:
+        clip, key = _Clip(), "short-1_paper_s0_usingall"
+
+    monkeypatch.setattr(suite_run, "load_bop_scene", lambda *a, **k: None)
+    monkeypatch.setattr(suite_run, "run_one", lambda *a, **k: [{f: "1" for f in ROW_FIELDS}])
+    suite_run.execute([_Run()], tmp_path / "root", {}, tmp_path / "work", {"alpha": 4})
+    suite_run.execute([_Run()], tmp_path / "root", {}, tmp_path / "work")          # resumed: nothing to run
+    prov = json.loads((tmp_path / "work" / "provenance.json").read_text())
+    assert [e["options"] for e in prov["refined_on"]] == [{"alpha": 4}, {}]
+    assert prov["refined_on"][0]["runs"] == ["short-1_paper_s0_usingall"] and prov["refined_on"][0]["host"]["cpu"]
+    assert prov["scenes"]["1"] == {"rgb_sha256": digest, "marker_rgb_sha256": digest,
+                                   "rendered_on": {"cpu": "renderer CPU"}, "hash": "h1"}
+    (sdir / "rgb" / "000000.png").write_bytes(b"other bytes")                   # the images changed on disk
+    assert suite_run.scene_provenance(tmp_path / "root", [1])["1"]["rgb_sha256"] != digest

@@ -27,6 +27,7 @@ from ..errors import YcbvssError
 from ..gt_info import compute_gt_info
 from ..io.atomic import read_json, write_json_atomic
 from ..io.bop import BopSceneWriter, load_bop_scene, load_models
+from ..io.provenance import host_record, rgb_sha256
 from ..io.ycbv import load_ycbv_models
 from ..manifest import object_names
 from ..procedural.ycbv_scene import make_ycbv_scene
@@ -260,7 +261,8 @@ def build_scene(spec: SuiteScene, models: dict, root: Path, width: int = 640, he
     writer.close()
     shutil.rmtree(root / "work" / f"{spec.scene_id:06d}", ignore_errors=True)
     write_json_atomic(marker, {"hash": h, "spec": asdict(spec), "layout": getattr(sc, "layout", {}),
-                               "width": width, "height": height, "samples": samples})
+                               "width": width, "height": height, "samples": samples,
+                               "rgb_sha256": rgb_sha256(sdir), "rendered_on": host_record()})
     return sdir
 
 

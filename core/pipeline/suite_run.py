@@ -26,8 +26,9 @@ import numpy as np
 from ..errors import YcbvssError
 from ..eval.metrics import pose_errors
 from ..geometry.so3 import log_so3
-from ..io.atomic import write_json_atomic
+from ..io.atomic import read_json, write_json_atomic
 from ..io.bop import load_bop_scene
+from ..io.provenance import host_record, rgb_sha256
 from ..progress import progress
 from ..refine.bundle import RefineOptions, refine_scene, ridge_fallback_objects
 from .perturb import perturb_poses
@@ -217,9 +218,31 @@ def _header(path: Path) -> list[str]:
         return next(csv.reader(fh))
 
 
+def scene_provenance(root: Path, scene_ids) -> dict:
+    """Per suite scene under ``root/test`` the digest of its images and the host that rendered them,
+    as its marker (``suite_scene.json``) records them (None for scenes rendered before the marker
+    held them), and the digest of the images on disk now (:mod:`ycbvss.io.provenance`)."""
+    out = {}
+    for sid in sorted(set(int(s) for s in scene_ids)):
+        sdir = Path(root) / "test" / f"{sid:06d}"
+        marker = sdir / "suite_scene.json"
+        m = read_json(marker, "suite marker") if marker.is_file() else {}
+        out[str(sid)] = {"rgb_sha256": rgb_sha256(sdir), "marker_rgb_sha256": m.get("rgb_sha256"),
+                         "rendered_on": m.get("rendered_on"), "hash": m.get("hash")}
+    return out
+
+
 def execute(runs: list[Run], root: Path, models: dict, out: Path, opts_kw: dict | None = None) -> Path:
-    """Run what is not done yet; append rows to ``out/rows.csv``. Returns the CSV path."""
+    """Run what is not done yet; append rows to ``out/rows.csv``. Returns the CSV path. Writes
+    ``out/provenance.json``: the refining host, the options and the images each scene's rows come
+    from (:func:`scene_provenance`), merged with an earlier run's record in the same folder."""
     out.mkdir(parents=True, exist_ok=True)
+    prov_path = out / "provenance.json"
+    prov = read_json(prov_path, "suite provenance") if prov_path.is_file() else {}
+    prov.setdefault("refined_on", []).append({"host": host_record(), "options": opts_kw or {},
+                                              "runs": [r.key for r in runs]})
+    prov.setdefault("scenes", {}).update(scene_provenance(root, {r.clip.scene_id for r in runs}))
+    write_json_atomic(prov_path, prov)
     done_dir = out / "done"
     done_dir.mkdir(exist_ok=True)
     rows_path = out / "rows.csv"
