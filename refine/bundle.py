@@ -1570,6 +1570,26 @@ def _apply_point_scale(pb: BundleProblem, terms: list, stats: dict, scaled: np.n
         pb.T_m = inv_T(G) @ T_m
 
 
+def _sweep(stage, levels: tuple, again: bool, obj_ids: list, stats: dict, log: list) -> list:
+    """Run the keyframe ``stage`` through the blur ``levels``; with ``again``
+    (``RefineOptions.sweep_again``), when the finest level's iteration cap ended it with objects still
+    drifting one way (``stage.drifting_objects``: the bundle has not finished), run the levels once
+    more from where it stopped. Returns the last run's terms; ``stats["sweep_again"]`` is None or
+    names the drifting objects (obj_ids) after each sweep."""
+    terms = stage.run(levels)
+    stats["sweep_again"] = None
+    if again and stage.drifting_objects:
+        first = sorted(int(obj_ids[j]) for j in stage.drifting_objects)
+        stage.drifting_objects = set()
+        terms = stage.run(levels)
+        stats["sweep_again"] = {"drifting_after_first": first,
+                                "drifting_after_second": sorted(int(obj_ids[j]) for j in stage.drifting_objects)}
+        log.append({"stage": "sweep_again", "accepted": True,
+                    "message": f"keyframe bundle still drifting at the iteration cap (objects {first}): "
+                               "its blur levels run again"})
+    return terms
+
+
 def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarray, pb0: BundleProblem,
                       kf: list[int], opt: RefineOptions, log: list, stats: dict, imgs: _SceneImages,
                       group: str | None = None) -> _KeyframeSolution:
@@ -1615,7 +1635,7 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     levels = tuple(opt.edge_sigmas_px or auto_sigmas(base, views[0].width))
     stats["edge_sigmas_px"] = list(levels)
     obj_free = pb.obj_free.copy()
-    terms_kf = stage.run(levels)
+    terms_kf = _sweep(stage, levels, opt.sweep_again, obj_ids, stats, log)
     if stage.held_hidden:
         # held objects count in the covariance like the others (their pose is as uncertain as the
         # image leaves it), and the status says they were held

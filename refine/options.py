@@ -368,6 +368,19 @@ class RefineOptions:
     # refine the keyframe bundle again as the baseline group its refined cameras read, when that is
     # not the group its initial cameras read (refine.bundle._regroup; far initial errors scatter them)
     regroup: bool = True
+    # when the keyframe bundle's finest level ends at its iteration cap with objects still drifting one
+    # way (the bundle has not finished; those poses are `uncertain`), run its blur levels once more from
+    # where it stopped (refine.bundle._sweep; stats["sweep_again"], the suite rows' sweep_again column).
+    # Why it was tried: started far off (suite long-1 from ADD 60 mm, seed 0) the two outer iterations
+    # of each coarse level leave the scene sliding (session 70's rows: 4 of 7 objects drifting in every
+    # view, 19 of 200 frames' poses > 2 mm, none `converged`); four iterations per coarse level
+    # (coarse_iters 4) gave 0.945 within 2 mm but 6 poses of one non-keyframe 15-49 mm off and
+    # `converged`. Off: measured in session 72 it does not help and costs accuracy. Long-1 from ADD
+    # 60 mm: 0.886 within 2 mm with it (session 70's code without it: 0.906), no pose > 10 mm `converged`;
+    # from the paper's init the one bundle of the session-71 runs that ends drifting, held-out short-3
+    # at seed 1 (its extra-large clamp), goes on to the scene's biased rest: tz 2.02 -> 2.58 mm (as at
+    # its seeds 0 and 5).
+    sweep_again: bool = False
     extend_mm: float = 0.1            # ... by more than this (mm) per outer iteration, in a steady direction
     n_matches: int = 1000
     match_erode_px: int = 6

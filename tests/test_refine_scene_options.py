@@ -337,3 +337,41 @@ def test_orbit_baselines_used_here():
     T_m = _pb(NARROW).T_m
     for angles, deg in ((NARROW, 6.0), (MEDIUM, 20.0), (WIDE, 60.0)):
         assert abs(B.viewing_baseline_deg(_orbit(angles), T_m) - deg) < 0.5
+
+
+# RefineOptions.sweep_again: a keyframe bundle that the finest level's iteration cap ended with
+# objects still drifting one way runs its blur levels once more (refine.bundle._sweep). The stage is
+# a stand-in that records its runs and reports which objects drift after each.
+class _SweepStage:
+    def __init__(self, drifts):
+        self.drifts, self.runs, self.drifting_objects = list(drifts), [], set()
+
+    def run(self, levels):
+        self.runs.append(tuple(levels))
+        self.drifting_objects = set(self.drifts.pop(0))
+        return [f"terms of run {len(self.runs)}"]
+
+
+def test_sweep_runs_the_levels_again_only_when_objects_still_drift():
+    from ycbvss.refine.bundle import _sweep
+
+    levels = (8.0, 4.0, 2.0, 1.0)
+    stage, stats, log = _SweepStage([set()]), {}, []
+    assert _sweep(stage, levels, True, [1, 5, 8], stats, log) == ["terms of run 1"]
+    assert stage.runs == [levels] and stats["sweep_again"] is None and log == []        # finished: one sweep
+
+    stage, stats, log = _SweepStage([{0, 2}, set()]), {}, []
+    assert _sweep(stage, levels, True, [1, 5, 8], stats, log) == ["terms of run 2"]
+    assert stage.runs == [levels, levels]
+    assert stats["sweep_again"] == {"drifting_after_first": [1, 8], "drifting_after_second": []}
+    assert log[0]["stage"] == "sweep_again" and "[1, 8]" in log[0]["message"]
+    assert stage.drifting_objects == set()                                            # the status reads the second
+
+    stage, stats, log = _SweepStage([{1}, {1}]), {}, []
+    _sweep(stage, levels, True, [1, 5, 8], stats, log)
+    assert len(stage.runs) == 2 and stats["sweep_again"]["drifting_after_second"] == [5]   # at most once more
+    assert stage.drifting_objects == {1}                                              # still flagged
+
+    stage, stats, log = _SweepStage([{0}]), {}, []
+    _sweep(stage, levels, False, [1, 5, 8], stats, log)                               # option off
+    assert len(stage.runs) == 1 and stats["sweep_again"] is None and stage.drifting_objects == {0}

@@ -39,7 +39,8 @@ ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant",
               "tx_mm", "ty_mm", "tz_mm", "r_deg", "prj_px", "add_mm", "dx_mm", "dy_mm", "dz_mm", "init_add_mm", "init_prj_px",
               "sigma_tx_mm", "sigma_ty_mm", "sigma_tz_mm", "sigma_r_deg", "status", "confidence", "contour_px",
               "time_s", "n_frames", "contour_worst_px", "reason", "rx_obj_deg", "ry_obj_deg", "rz_obj_deg",
-              "interior_ncc", "turn_gain_ncc", "ridge_fallback", "slide_restart", "texture_share", "regroup")
+              "interior_ncc", "turn_gain_ncc", "ridge_fallback", "slide_restart", "texture_share", "regroup",
+              "sweep_again")
 VARIANTS = {"using all": {}, "w/o f_edge": {"use_edge": False}, "w/o f_point": {"use_point": False},
             "w/o f_t": {"use_temporal": False}}
 
@@ -174,6 +175,7 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 # 1: the object slid (or was put back) and the kept result is a restart without the coarsest level
                 "slide_restart": int(oid in restarted),
                 "regroup": regroup,
+                "sweep_again": int(bool(res.stats.get("sweep_again"))),
                 **dict(zip(("rx_obj_deg", "ry_obj_deg", "rz_obj_deg"),
                            rotation_error_in_model_deg(res.poses[k][:3, :3], gt[k][:3, :3])))})
     return rows
