@@ -376,7 +376,7 @@ class RefineOptions:
     # view, 19 of 200 frames' poses > 2 mm, none `converged`); four iterations per coarse level
     # (coarse_iters 4) gave 0.945 within 2 mm but 6 poses of one non-keyframe 15-49 mm off and
     # `converged`. Off: measured in session 72 it does not help and costs accuracy. Long-1 from ADD
-    # 60 mm: 0.886 within 2 mm with it (session 70's code without it: 0.906), no pose > 10 mm `converged`;
+    # 60 mm: 0.886 within 2 mm with it, 0.906 without (today's rows = session 70's), none > 10 mm `converged`;
     # from the paper's init the one bundle of the session-71 runs that ends drifting, held-out short-3
     # at seed 1 (its extra-large clamp), goes on to the scene's biased rest: tz 2.02 -> 2.58 mm (as at
     # its seeds 0 and 5).
