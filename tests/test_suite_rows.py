@@ -114,6 +114,7 @@ def test_suite_runs_record_their_host_options_and_images(tmp_path, monkeypatch):
     prov = json.loads((tmp_path / "work" / "provenance.json").read_text())
     assert [e["options"] for e in prov["refined_on"]] == [{"alpha": 4}, {}]
     assert prov["refined_on"][0]["runs"] == ["short-1_paper_s0_usingall"] and prov["refined_on"][0]["host"]["cpu"]
+    assert prov["refined_on"][1]["runs"] == []                                     # the resumed call refined nothing
     assert prov["scenes"]["1"] == {"rgb_sha256": digest, "marker_rgb_sha256": digest,
                                    "rendered_on": {"cpu": "renderer CPU"}, "hash": "h1"}
     (sdir / "rgb" / "000000.png").write_bytes(b"other bytes")                   # the images changed on disk

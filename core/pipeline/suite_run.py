@@ -236,19 +236,20 @@ def scene_provenance(root: Path, scene_ids) -> dict:
 
 def execute(runs: list[Run], root: Path, models: dict, out: Path, opts_kw: dict | None = None) -> Path:
     """Run what is not done yet; append rows to ``out/rows.csv``. Returns the CSV path. Writes
-    ``out/provenance.json``: the refining host, the options and the images each scene's rows come
-    from (:func:`scene_provenance`), merged with an earlier run's record in the same folder."""
+    ``out/provenance.json``: per call the refining host, the options and the runs it refines (none
+    when resumed with all done), and the images each scene's rows come from
+    (:func:`scene_provenance`), merged with an earlier call's record in the same folder."""
     out.mkdir(parents=True, exist_ok=True)
-    prov_path = out / "provenance.json"
-    prov = read_json(prov_path, "suite provenance") if prov_path.is_file() else {}
-    prov.setdefault("refined_on", []).append({"host": host_record(), "options": opts_kw or {},
-                                              "runs": [r.key for r in runs]})
-    prov.setdefault("scenes", {}).update(scene_provenance(root, {r.clip.scene_id for r in runs}))
-    write_json_atomic(prov_path, prov)
     done_dir = out / "done"
     done_dir.mkdir(exist_ok=True)
     rows_path = out / "rows.csv"
     todo = [r for r in runs if not (done_dir / f"{r.key}.json").is_file()]
+    prov_path = out / "provenance.json"
+    prov = read_json(prov_path, "suite provenance") if prov_path.is_file() else {}
+    prov.setdefault("refined_on", []).append({"host": host_record(), "options": opts_kw or {},
+                                              "runs": [r.key for r in todo]})
+    prov.setdefault("scenes", {}).update(scene_provenance(root, {r.clip.scene_id for r in runs}))
+    write_json_atomic(prov_path, prov)
     scenes: dict = {}
     bar = progress(total=len(todo), desc="suite", unit="run")
     try:
