@@ -22,6 +22,7 @@ import numpy as np
 def main() -> None:
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.pipeline.suite import load_clip
+    from ycbvss.refine.confidence import OK_PX
     from ycbvss.refine.evidence import _view_contour_offsets
     from ycbvss.refine.templates import ensure_meshes, get_renderer
 
@@ -56,7 +57,8 @@ def main() -> None:
             rows.append(Row(f"frame {im}, {d:g} mm nearer", vals + [float(np.nanmedian(vals))],
                             rule_before=d == 0.0 and bool(rows)))
     t = Table(caption=f"{a.clip}: per-object contour offset (px) and the view's median when every object of the frame "
-                      f"is moved nearer along the camera's optical axis (the status's per-view check: > 1 px is uncertain)",
+                      f"is moved nearer along the camera's optical axis (the status's per-view check: > {OK_PX:g} px is "
+                      f"uncertain at 640 px width)",
               label_header="frame, shift", columns=[f"obj {o}" for o in obj_cols] + ["view median"], rows=rows, digits=2)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
