@@ -124,6 +124,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dataset", required=True)
     ap.add_argument("--suite-root", required=True)
+    ap.add_argument("--suite", default="ycbv21", help="the suite of --clip (ycbv21, ycbv21-ci, ycbv21-fresh2, ...)")
     ap.add_argument("--clip", required=True, help="e.g. medium-4")
     ap.add_argument("--obj", type=int, required=True)
     ap.add_argument("--axis", choices=("x", "y", "z"), required=True, help="model axis of the turn")
@@ -143,7 +144,7 @@ def main() -> None:
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    models, sc = load_clip(a.dataset, a.suite_root, a.clip)
+    models, sc = load_clip(a.dataset, a.suite_root, a.clip, suite=a.suite)
     frames = {f.im_id: f for f in sc.frames}
     axis = "xyz".index(a.axis)
     centre = np.asarray(models[a.obj].vertices_mm, np.float64).mean(0)

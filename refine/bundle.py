@@ -272,6 +272,9 @@ class _Stage:
         """View i's f_edge candidates (and its lit template) on the thread pool: a Future of
         :func:`_lit_edge_candidates`."""
         kw = eo["kw"]
+        if kw.get("interior_max_turn_deg", 0.0) > 0 and self.opt.interior_turn_objects == "textureless":
+            kw = dict(kw, interior_turn_labels=np.array(
+                [k + 1 for k, j in enumerate(vr.obj_index) if self.models[self.pb.obj_ids[j]].textureless], int))
         if eo["ridge_area"] and vr.area_color is not None:
             kw = dict(kw, interior_color=vr.area_color)
         ridge_lit = bool(eo["ridge_lit"] and vr.normal is not None)
@@ -1618,7 +1621,7 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
     stats["object_ridge"] = ridge
     stage.min_sharpness = _bundle_min_sharpness(opt, group_now)
     stats["interior_min_sharpness"] = stage.min_sharpness
-    turn_groups = {"wide": ("wide",), "medium": ("medium", "wide")}     # checked in refine_scene
+    turn_groups = {"wide": ("wide",), "medium": ("medium", "wide"), "narrow": ("narrow", "medium", "wide")}   # checked in refine_scene
     if group_now in turn_groups[opt.interior_turn_groups]:
         stage.turn_finest = opt.interior_turn_finest_deg
     stage.interior_ridge = group_now in _groups(opt.interior_ridge_groups)
@@ -1743,8 +1746,11 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
             _groups(spec)
         except ValueError as e:
             raise YcbvssError(f"RefineOptions.{name}: {e}", where=f"scene {scene.scene_id}") from None
-    if opt.interior_turn_groups not in ("wide", "medium"):
-        raise YcbvssError(f"RefineOptions.interior_turn_groups must be 'wide' or 'medium', got "
+    if opt.interior_turn_objects not in ("all", "textureless"):
+        raise YcbvssError(f"RefineOptions.interior_turn_objects must be 'all' or 'textureless', got "
+                          f"{opt.interior_turn_objects!r}", where=f"scene {scene.scene_id}")
+    if opt.interior_turn_groups not in ("wide", "medium", "narrow"):
+        raise YcbvssError(f"RefineOptions.interior_turn_groups must be 'wide', 'medium' or 'narrow', got "
                           f"{opt.interior_turn_groups!r}", where=f"scene {scene.scene_id}")
     if opt.flow_prior_levels not in ("finest", "all"):
         raise YcbvssError(f"RefineOptions.flow_prior_levels must be 'finest' or 'all', got {opt.flow_prior_levels!r}",

@@ -548,7 +548,8 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
                         back_inst: np.ndarray | None = None, texture_max_turn_deg: float = 0.0,
                         surface_normal: np.ndarray | None = None,
                         texture_min_sharpness: float = 0.0, texture_ridge_sigma_px: float = 0.0,
-                        texture_ridge_min_strength: float = 8.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        texture_ridge_min_strength: float = 8.0,
+                        texture_turn_labels: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`interior_points` for every label at once: uv (N, 2), depth (N,), label (N,).
     ``normal`` None: no crease edges; ``fold_min_angle_deg``: see :func:`crease_edges`. With
     ``back_depth`` / ``back_inst`` a self-occlusion edge (a depth jump within the object, the near
@@ -556,7 +557,8 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
     ``texture_max_turn_deg`` > 0 with ``surface_normal`` (the rendered normals, H x W x 3): texture
     (Canny) edges only where the surface is flat at the pixel scale
     (:func:`ycbvss.refine.interior_edges.flat_at`); where one is dropped a crease edge may take its
-    place. ``texture_min_sharpness`` > 0: texture edges only where they are sharp
+    place; ``texture_turn_labels``: only the texture edges of these labels are gated (None: all).
+    ``texture_min_sharpness`` > 0: texture edges only where they are sharp
     (:func:`ycbvss.refine.interior_edges.sharp_at`), not on soft colour ramps.
     ``texture_ridge_sigma_px`` > 0: texture edges located by :func:`ridge_edges` at that blur (the
     image edge field's operator; strength at least ``texture_ridge_min_strength``), not by Canny."""
@@ -583,8 +585,11 @@ def all_interior_points(inst: np.ndarray, depth: np.ndarray, color: np.ndarray, 
         edges[v, u] = sharp_at(gray, v, u, texture_min_sharpness)
     if texture_max_turn_deg > 0 and surface_normal is not None:
         v, u = np.nonzero(edges)
-        edges[v, u] = flat_at(surface_normal[y0:y1, x0:x1], ic, np.stack([u, v], 1).astype(np.float64),
-                              texture_max_turn_deg)
+        keep = flat_at(surface_normal[y0:y1, x0:x1], ic, np.stack([u, v], 1).astype(np.float64),
+                       texture_max_turn_deg)
+        if texture_turn_labels is not None:
+            keep |= ~np.isin(ic[v, u], np.asarray(texture_turn_labels, int))
+        edges[v, u] = keep
     v, u = np.nonzero(edges)
     uv = np.stack([u, v], 1).astype(np.float64) + (sub[v, u] if texture_ridge_sigma_px > 0 else subpixel_offsets(gray, v, u))
     dep, labs = depth[v + y0, u + x0], ic[v, u]

@@ -294,6 +294,10 @@ class RefineOptions:
     # bias_removal_groups sets 20 deg on medium and wide scenes with the other corrections
     interior_turn_finest_deg: float = 0.0
     interior_turn_groups: str = "wide"
+    # the objects that gate applies to: "all", or "textureless" (assets manifest): a textureless object's
+    # scan has no print, so its texture edges are the capture's baked shading (the foam brick's bevels),
+    # while a printed label's edges stay where they are printed, however the surface turns under them
+    interior_turn_objects: str = "all"
     # keyframe bundles of these baseline groups ("" none, e.g. "medium,wide"): at the finest blur level
     # f_edge's interior texture samples are located on the template's own edge field (the image's
     # operator: colour, the level's blur, bicubic minima; refine.edge.ridge_edges), in the

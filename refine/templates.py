@@ -252,7 +252,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          contact_mm: float = 0.0, normals_contact_mm: float = 0.0,
                          junction_px: float = 0.0, interior_ridge_sigma_px: float = 0.0,
                          interior_color: np.ndarray | None = None,
-                         table_plane: tuple | None = None, table_offset: bool = False) -> EdgeCandidates:
+                         table_plane: tuple | None = None, table_offset: bool = False,
+                         interior_turn_labels: np.ndarray | None = None) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -267,7 +268,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     normals (``n_c``, f_edge's contour-dilation nuisance). ``interior_max_turn_deg`` > 0: interior
     texture (Canny) candidates only where the surface is flat at the pixel scale
     (:func:`ycbvss.refine.interior_edges.flat_at`; needs ``vr.normal``); crease and self-occlusion
-    candidates are kept. ``interior_min_sharpness`` > 0: interior texture candidates only where
+    candidates are kept; ``interior_turn_labels``: only these labels' candidates are so gated (None: all).
+    ``interior_min_sharpness`` > 0: interior texture candidates only where
     the template's edge is sharp (:func:`ycbvss.refine.interior_edges.sharp_at`). ``contact_mm`` > 0:
     no contour samples where another object's surface lies less than that far behind (contact
     lines, see :func:`ycbvss.refine.edge.all_contour_points`). ``normals_contact_mm`` > 0 (with
@@ -301,7 +303,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                                          back_depth=vr.back_depth_mm, back_inst=vr.back_instance,
                                          texture_max_turn_deg=interior_max_turn_deg, surface_normal=vr.normal,
                                          texture_min_sharpness=interior_min_sharpness,
-                                         texture_ridge_sigma_px=interior_ridge_sigma_px)
+                                         texture_ridge_sigma_px=interior_ridge_sigma_px,
+                                         texture_turn_labels=interior_turn_labels)
     n_c = contour_normals(uv_c, l_c, vr.instance, blur_sigma_px or 1.0) if normals else None
     if n_c is not None and normals_contact_mm > 0.0:
         on_line = contact_samples(vr.instance, vr.depth_mm, geo if blur_sigma_px is not None else uv_c, n_c, l_c,

@@ -57,6 +57,27 @@ def test_interior_points_drop_texture_edges_on_a_rounded_edge_only():
     assert near(uv_flat, 11.5) == near(uv_all, 11.5) and near(uv_flat, 29.5) == 0
 
 
+
+def test_interior_turn_gate_only_for_the_labels_given():
+    """``texture_turn_labels``: the same bevelled step on two objects (rows 4-23 label 1, 24-43
+    label 2); gating label 2 only drops label 2's texture edge on the bevel and keeps label 1's."""
+    from ycbvss.refine.edge import all_interior_points
+
+    H = W = 48
+    inst = np.zeros((H, W), np.int32)
+    inst[4:24, 4:44] = 1
+    inst[24:44, 4:44] = 2
+    depth = np.where(inst > 0, 800.0, 0.0).astype(np.float32)
+    color = np.full((H, W, 3), 60, np.uint8)
+    color[:, 30:] = 220
+    ang = np.clip((np.arange(W) - 28) / 4.0, 0.0, 1.0) * (np.pi / 2)
+    n = np.repeat(np.stack([np.sin(ang), np.zeros(W), -np.cos(ang)], axis=1)[None], H, axis=0)
+    uv, _, lab = all_interior_points(inst, depth, color, None, texture_max_turn_deg=20.0, surface_normal=n,
+                                     texture_turn_labels=np.array([2]))
+    on_bevel = np.abs(uv[:, 0] - 29.5) < 2.0
+    assert int(np.sum(on_bevel & (lab == 1))) > 10 and int(np.sum(on_bevel & (lab == 2))) == 0
+
+
 def _step_and_ramp(H: int = 48, W: int = 64) -> np.ndarray:
     """Grey image (H, W) float: a step of 80 grey levels at x = 16 (softened like a rendered edge,
     sigma 0.5 px) and a linear ramp of 80 levels from x = 36 to x = 48 (a soft 'baked shading' edge)."""
@@ -98,7 +119,8 @@ def test_interior_points_drop_soft_texture_edges_only():
 
 
 @pytest.mark.parametrize("arc_deg, groups, gated", [(60.0, "wide", True), (20.0, "wide", False),
-                                                     (20.0, "medium", True)])
+                                                     (20.0, "medium", True), (4.0, "medium", False),
+                                                     (4.0, "narrow", True)])
 def test_interior_turn_gate_at_the_finest_level_of_its_baseline_groups_only(monkeypatch, arc_deg, groups, gated):
     """``interior_turn_finest_deg``: f_edge's candidates get the normal-turn gate at the finest
     blur level of a keyframe bundle whose baseline group is listed, never at a coarser level

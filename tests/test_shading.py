@@ -167,3 +167,45 @@ def test_rim_hold_removes_the_extrapolated_falloff_at_a_glossy_rim():
     err0 = abs(lin(shade(albedo, n, inside, C)) - lin(img)) / lin(img)
     err3 = abs(lin(shade(albedo, n, inside, C, instance=inst, rim_px=3)) - lin(img)) / lin(img)
     assert err0 > 0.05 and err3 < 0.002, (err0, err3)
+
+
+def test_height_basis_is_the_falloff_above_a_camera_frame_plane():
+    from ycbvss.refine.shading import height_basis
+    K = np.array([[500.0, 0, 40], [0, 500.0, 30], [0, 0, 1]])
+    # the plane z = 1000 mm seen from the camera (normal towards the camera: height = 1000 - z)
+    n, d = np.array([0.0, 0.0, -1.0]), 1000.0
+    depth = np.full((60, 80), 990.0)
+    depth[:, 40:] = 0.0                                          # no surface there
+    E = height_basis(depth, K, (n, d), 10.0)
+    # pixel (u=10, v=5): X = z ((u - cx)/f, (v - cy)/f, 1); height = n.X + d = 10 mm
+    assert abs(E[5, 10] - np.exp(-1.0)) < 1e-12
+    assert np.all(E[:, 40:] == 0.0)
+    below = height_basis(np.full((60, 80), 1005.0), K, (n, d), 10.0)   # under the plane: clipped to h = 0
+    assert np.allclose(below, 1.0)
+
+
+def test_fit_recovers_an_extra_multiplicative_basis():
+    rng = np.random.default_rng(5)
+    n, inside = _sphere()
+    albedo = rng.integers(40, 230, size=n.shape[:2] + (3,)).astype(np.uint8)
+    light = np.array([0.2, -0.4, -0.89])
+    light /= np.linalg.norm(light)
+    u = np.mgrid[0:n.shape[0], 0:n.shape[1]][1]
+    extra = ((u // 8) % 2 == 0) * inside * 1.0                   # stripes: no function of the normal
+    s = 0.35 + np.clip(n @ (0.8 * light), 0, None) + 0.4 * extra
+    img = _linear_to_srgb_u8(srgb_to_linear(albedo) * s[..., None])
+    img[~inside] = 0
+    C9 = fit_shading(img, albedo, n, inside)
+    C10 = fit_shading(img, albedo, n, inside, extra=extra)
+    assert C9.shape == (3, 9) and C10.shape == (3, 10)
+    # measured: weight 0.39-0.40 per channel
+    assert np.all(np.abs(C10[:, 9] - 0.4) < 0.05), C10[:, 9]
+    e9 = np.abs(srgb_to_linear(shade(albedo, n, inside, C9))[inside] - srgb_to_linear(img)[inside]).mean()
+    e10 = np.abs(srgb_to_linear(shade(albedo, n, inside, C10, extra=extra))[inside] - srgb_to_linear(img)[inside]).mean()
+    assert e10 < 0.5 * e9, (e10, e9)
+    try:
+        shade(albedo, n, inside, C10)
+    except ValueError as e:
+        assert "extra basis" in str(e)
+    else:
+        raise AssertionError("a 10-term lighting without its basis image must be refused")
