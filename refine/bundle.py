@@ -272,9 +272,8 @@ class _Stage:
         """View i's f_edge candidates (and its lit template) on the thread pool: a Future of
         :func:`_lit_edge_candidates`."""
         kw = eo["kw"]
-        if kw.get("interior_max_turn_deg", 0.0) > 0 and self.opt.interior_turn_objects == "textureless":
-            kw = dict(kw, interior_turn_labels=np.array(
-                [k + 1 for k, j in enumerate(vr.obj_index) if self.models[self.pb.obj_ids[j]].textureless], int))
+        if kw.get("interior_max_turn_deg", 0.0) > 0:
+            kw = dict(kw, interior_turn_labels=self._turn_labels(vr))
         if eo["ridge_area"] and vr.area_color is not None:
             kw = dict(kw, interior_color=vr.area_color)
         ridge_lit = bool(eo["ridge_lit"] and vr.normal is not None)
@@ -604,6 +603,13 @@ class _Stage:
         """The interior normal-turn gate (deg, 0 = off) of f_edge's candidates at the current level."""
         return self.opt.interior_max_turn_deg or (self.turn_finest if self.at_finest else 0.0)
 
+    def _turn_labels(self, vr: ViewRender) -> np.ndarray | None:
+        """The instance labels of ``vr`` the interior turn gate applies to (``interior_turn_objects``):
+        None for every object, else those of the textureless ones."""
+        if self.opt.interior_turn_objects != "textureless":
+            return None
+        return np.array([k + 1 for k, j in enumerate(vr.obj_index) if self.models[self.pb.obj_ids[j]].textureless], int)
+
     def _object_edge_costs(self, fields: dict, keep: bool = False) -> np.ndarray:
         """Mean edge cost E (0 on an image edge, 1 far from any) of each object's template edge
         samples at the current poses in the given fields, over the stage's views; (n_objs,), NaN
@@ -620,7 +626,8 @@ class _Stage:
             jobs.append((i, vr, _view_pool().submit(
                 view_edge_candidates, vr, creases=opt.edge_creases, interior_max_turn_deg=self._turn_gate(),
                 fold_min_angle_deg=self.fold_angle, blur_sigma_px=self._blur_match_sigma(fields),
-                contact_mm=opt.edge_contact_mm, junction_px=self.junction_px)))
+                contact_mm=opt.edge_contact_mm, junction_px=self.junction_px,
+                interior_turn_labels=self._turn_labels(vr) if self._turn_gate() > 0 else None)))
         for i, vr, job in jobs:
             for j, X in select_edge_samples(vr, pb.views[i].K, job.result(), opt.n_edge_points, rng).items():
                 if len(X) >= opt.min_visible_px:

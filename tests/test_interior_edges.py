@@ -159,3 +159,33 @@ def test_interior_turn_groups_rejects_an_unknown_group():
     gt = {(f.im_id, i.obj_id): i.T_m2c for f in ps.frames for i in f.instances}
     with pytest.raises(YcbvssError, match="interior_turn_groups"):
         B.refine_scene(ps.scene, ps.models, gt, B.RefineOptions(interior_turn_groups="wdie"))
+
+
+def test_interior_turn_gate_on_textureless_objects_only(monkeypatch):
+    """``interior_turn_objects="textureless"``: at the gated (finest) level f_edge's candidates get
+    exactly the labels of the view's textureless objects (assets flags of the procedural models);
+    a misspelt value is an error naming the option."""
+    import ycbvss.refine.bundle as B
+    from ycbvss.errors import YcbvssError
+    from ycbvss.procedural.render import render_frame_fast
+    from ycbvss.procedural.scene import make_scene
+
+    ps = make_scene(seed=3, n_frames=3, width=320, height=240, arc_deg=60.0)
+    imgs = {f.im_id: render_frame_fast(ps, f, noise_sigma=1.0)[0] for f in ps.frames}
+    gt = {(f.im_id, i.obj_id): i.T_m2c for f in ps.frames for i in f.instances}
+    seen: list = []
+    real = B.view_edge_candidates
+
+    def spy(vr, **kw):
+        if kw.get("interior_max_turn_deg", 0.0) > 0:
+            want = sorted(k + 1 for k, j in enumerate(vr.obj_index) if ps.models[sorted(ps.models)[j]].textureless)
+            seen.append((sorted(kw["interior_turn_labels"].tolist()), want))
+        return real(vr, **kw)
+
+    monkeypatch.setattr(B, "view_edge_candidates", spy)
+    opt = B.RefineOptions(interior_turn_finest_deg=20.0, interior_turn_groups="wide", interior_turn_objects="textureless",
+                          max_iters=1, coarse_iters=1, extra_iters=0, turn_check=False, bias_removal_groups="")
+    B.refine_scene(ps.scene, ps.models, gt, opt, images=imgs)
+    assert seen and all(got == want for got, want in seen) and any(want for _, want in seen)
+    with pytest.raises(YcbvssError, match="interior_turn_objects"):
+        B.refine_scene(ps.scene, ps.models, gt, B.RefineOptions(interior_turn_objects="plain"))
