@@ -196,7 +196,7 @@ def main() -> None:
             dots += [(p, q, interior) for p, q in zip(uv[m], pull)]
         totals += per_class
         for k, name in enumerate(CLASSES):
-            rows.append(Row(f"frame {im}: {name}", [float(counts[k]), float(per_class[k])]))
+            rows.append(Row(f"frame {im}: {name}", [int(counts[k]), float(per_class[k])]))
         rows[-len(CLASSES)].rule_before = True
         # the map
         ys, xs = np.nonzero(vr.instance == lab)

@@ -113,8 +113,8 @@ def main() -> None:
                 Hc[k] += JAJ[s].sum(0)
                 cnt[k] += int(s.sum())
     Ht = Hc.sum(0)
-    rows = [Row(name, [float(cnt[k])] + [float(v) for v in -np.linalg.solve(Ht, G[k])]) for k, name in enumerate(CLASSES)]
-    rows.append(Row("all samples", [float(cnt.sum())] + [float(v) for v in -np.linalg.solve(Ht, G.sum(0))], rule_before=True))
+    rows = [Row(name, [int(cnt[k])] + [float(v) for v in -np.linalg.solve(Ht, G[k])]) for k, name in enumerate(CLASSES)]
+    rows.append(Row("all samples", [int(cnt.sum())] + [float(v) for v in -np.linalg.solve(Ht, G.sum(0))], rule_before=True))
     t = Table(caption=f"{a.clip}, object {a.obj} ({models[a.obj].name}) at the exact GT, cameras at the GT: f_edge's "
                       f"one-step move -H^-1 g_class per sample class (H of all samples; interior turn gate {a.turn:g} deg, "
                       f"sharpness gate {a.sharp:g})", label_header="sample class", columns=["samples", *DOFS],

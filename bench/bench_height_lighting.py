@@ -74,7 +74,7 @@ def main() -> None:
     for name in names:
         v = np.asarray(stats[name]).reshape(-1, 2)
         w = weights.get(name)
-        rows.append(Row(name, [float(len(v)), float(v[:, 0].mean()) if len(v) else None,
+        rows.append(Row(name, [len(v), float(v[:, 0].mean()) if len(v) else None,
                                float(v[:, 1].mean()) if len(v) else None,
                                float(np.mean(w)) if w else None, float(np.std(w)) if w else None]))
     t = Table(caption=f"suite scenes {a.scenes}, frames {a.frames}, exact GT: f_point's flow matches template -> image "

@@ -76,7 +76,7 @@ def main() -> None:
         lo, hi = HEIGHT_BINS_MM[k], HEIGHT_BINS_MM[k + 1]
         name = f"{lo:g}-{hi:g} mm" if np.isfinite(hi) else f">= {lo:g} mm"
         rows.append(Row(f"{name}, {'rim (<= 3 px)' if at_rim else 'inside'}",
-                        [float(len(lr)), float(np.exp(np.median(lr))), float(np.exp(np.percentile(lr, 25))),
+                        [len(lr), float(np.exp(np.median(lr))), float(np.exp(np.percentile(lr, 25))),
                          float(np.exp(np.percentile(lr, 75)))]))
     t = Table(caption=f"{a.clips}: image / lit template (linear light, grey) on object pixels at the exact GT, by height "
                       f"above the table and distance from the silhouette ({a.frames_per_clip} frames per clip)",
