@@ -21,12 +21,12 @@ the development and the held-out poses.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from ycbvss.pipeline.options import read_options_arg
 from ycbvss.pipeline.suite import build_suite, clips_of, suite_models
 from ycbvss.pipeline.suite_report import KIND_GROUP, SIGMA_AXES, row_sigmas, split_visible, visibility, write_report
 from ycbvss.pipeline.suite_run import Run, execute, read_rows
@@ -97,7 +97,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--inits", default="paper")
     ap.add_argument("--seeds", default="0")
     ap.add_argument("--variants", default="using all")
-    ap.add_argument("--options", default="{}", help="RefineOptions overrides (JSON)")
+    ap.add_argument("--options", default=None, help="RefineOptions overrides: a JSON object, @FILE or FILE.json "
+                                                    "(checked as `ycbvss refine --options` checks it)")
     ap.add_argument("--work", help="run: the folder of rows.csv and the done markers")
     ap.add_argument("--rows", nargs="*", default=[], help="report: rows.csv files (later ones append)")
     ap.add_argument("--out", help="report: the table folder")
@@ -107,11 +108,12 @@ def main(argv: list[str] | None = None) -> int:
     if a.what == "run":
         if not a.work:
             ap.error("run needs --work")
+        opts_kw = read_options_arg(a.options)          # checked before the suite is built
         models, specs = build_suite(a.dataset, root, a.suite, scene_ids=scenes)
         runs = [Run(c, i, int(s), v) for sp in specs for c in clips_of(sp, a.kinds.split(","))
                 for i in a.inits.split(",") for s in a.seeds.split(",") for v in a.variants.split(",")]
         print(f"{len(runs)} runs", flush=True)
-        execute(runs, root, models, Path(a.work), json.loads(a.options))
+        execute(runs, root, models, Path(a.work), opts_kw)
         return 0
     if not a.out or not a.rows:
         ap.error("report needs --rows and --out")
@@ -130,4 +132,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from ycbvss.errors import YcbvssError
+    try:
+        sys.exit(main())
+    except YcbvssError as e:
+        sys.exit(f"suite_runs.py: {e}")

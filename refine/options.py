@@ -637,3 +637,67 @@ class RefineResult:
     confidence: dict = field(default_factory=dict)
     reasons: dict = field(default_factory=dict)
     quality: dict = field(default_factory=dict)
+
+
+def options_from_mapping(overrides: dict) -> dict:
+    """Validated keyword arguments of :class:`RefineOptions` from a mapping of field names to values
+    (e.g. parsed JSON, the ``--options`` of ``ycbvss refine`` / ``ycbvss validate``).
+
+    Unknown names raise ``ValueError`` naming the closest field; a JSON list becomes a tuple where the
+    field's default is one (``edge_sigmas_px``), an object becomes :class:`FlowOptions` for ``flow``.
+    Values are then checked by building the options once (a wrong type raises ``ValueError``); the
+    options' own range checks run in :func:`ycbvss.refine.refine_scene`."""
+    import dataclasses
+    import difflib
+
+    fields = {f.name: f for f in dataclasses.fields(RefineOptions)}
+    out = {}
+    for name, value in dict(overrides).items():
+        if name not in fields:
+            close = difflib.get_close_matches(str(name), list(fields), n=1)
+            raise ValueError(f"unknown RefineOptions field {name!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+        if name == "flow" and isinstance(value, dict):
+            try:
+                value = FlowOptions(**value)
+            except TypeError as e:
+                raise ValueError(f"RefineOptions.flow: {e}") from None
+        elif isinstance(value, list):
+            value = tuple(value)
+        out[name] = value
+    try:
+        RefineOptions(**out)
+    except TypeError as e:
+        raise ValueError(str(e)) from None
+    defaults = RefineOptions()
+    kinds = {"bool": (bool,), "str": (str,), "int": (int,), "float": (int, float), "None": (type(None),),
+             "FlowOptions": (FlowOptions,), "dict": (dict,)}
+    for name, value in list(out.items()):
+        d = getattr(defaults, name)
+        if isinstance(d, int) and not isinstance(d, bool) and isinstance(value, float):
+            if not value.is_integer():
+                raise ValueError(f"RefineOptions.{name}: expected an integer like its default {d!r}, got {value!r}")
+            out[name] = value = int(value)
+        allowed: list = []
+        for t in str(fields[name].type).split("|"):
+            t = t.strip()
+            allowed += [tuple] if t.startswith("tuple") else list(kinds.get(t, ()))
+        if not allowed:
+            continue                                   # an annotation not listed here: left to the refiner
+        if isinstance(value, bool) and bool not in allowed:
+            ok = False                                 # True is an int to Python, not to a float or int field
+        else:
+            ok = isinstance(value, tuple(allowed))
+        if not ok:
+            raise ValueError(f"RefineOptions.{name}: expected {fields[name].type}, got {value!r}")
+    return out
+
+
+def options_to_json(overrides: dict | None) -> dict:
+    """``overrides`` (RefineOptions field -> value) as plain JSON values: tuples as lists,
+    :class:`FlowOptions` as an object; the inverse of :func:`options_from_mapping` for reports."""
+    import dataclasses
+
+    out = {}
+    for k, v in (overrides or {}).items():
+        out[k] = dataclasses.asdict(v) if dataclasses.is_dataclass(v) else (list(v) if isinstance(v, tuple) else v)
+    return out

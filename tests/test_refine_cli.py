@@ -159,3 +159,36 @@ def test_cli_refine_bad_edge_junction_px_is_one_line_error(bop_root, tmp_path, c
                "--out", str(tmp_path / "o"), "--edge-junction-px", "-2"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc != 0 and len(err) == 1 and "edge_junction_px" in err[0] and "scene 1" in err[0], err
+
+
+def test_cli_refine_options_reach_the_refiner_and_bad_ones_are_one_line_errors(bop_root, tmp_path, capsys):
+    """``--options`` sets RefineOptions fields (inline or from a file): a value only the refiner
+    checks fails there with its scene named, so it got through; a misspelt field or bad JSON stops
+    before anything runs, with one line naming the field or the file."""
+    root, _, _ = bop_root
+    base = ["refine", "--dataset", str(root), "--split", "test", "--init", str(root / "init.csv")]
+    rc = main(base + ["--out", str(tmp_path / "o1"), "--options", '{"interior_turn_groups": "wdie"}'])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc != 0 and len(err) == 1 and "interior_turn_groups" in err[0] and "scene 1" in err[0], err
+    rc = main(base + ["--out", str(tmp_path / "o2"), "--options", '{"max_iter": 2}'])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc != 0 and len(err) == 1 and "'max_iter'" in err[0] and "did you mean 'max_iters'" in err[0], err
+    assert not (tmp_path / "o2").exists()
+    bad = tmp_path / "opts.json"
+    bad.write_text('{"alpha": 2,}')
+    rc = main(base + ["--out", str(tmp_path / "o3"), "--options", f"@{bad}"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc != 0 and len(err) == 1 and str(bad) in err[0] and "not valid JSON" in err[0], err
+    good = tmp_path / "good.json"
+    good.write_text('{"max_iters": 2, "coarse_iters": 1, "edge_sigmas_px": [4, 2, 1]}')
+    rc = main(base + ["--out", str(tmp_path / "o4"), "--options", str(good)])
+    assert rc == 0 and any((tmp_path / "o4").glob("*.csv"))
+
+
+def test_cli_validate_bad_options_is_one_line_error_before_anything_runs(bop_root, tmp_path, capsys):
+    root, _, _ = bop_root
+    rc = main(["validate", "--gt-exact", "--dataset", str(root), "--out", str(tmp_path / "v"),
+               "--options", '{"use_edge": "no"}'])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc != 0 and len(err) == 1 and "RefineOptions.use_edge" in err[0], err
+    assert not (tmp_path / "v").exists()

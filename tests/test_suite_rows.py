@@ -4,6 +4,7 @@ from __future__ import annotations
 import csv
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from ycbvss.eval.metrics import pose_errors
@@ -110,12 +111,42 @@ def test_suite_runs_record_their_host_options_and_images(tmp_path, monkeypatch):
     monkeypatch.setattr(suite_run, "load_bop_scene", lambda *a, **k: None)
     monkeypatch.setattr(suite_run, "run_one", lambda *a, **k: [{f: "1" for f in ROW_FIELDS}])
     suite_run.execute([_Run()], tmp_path / "root", {}, tmp_path / "work", {"alpha": 4})
-    suite_run.execute([_Run()], tmp_path / "root", {}, tmp_path / "work")          # resumed: nothing to run
+    suite_run.execute([_Run()], tmp_path / "root", {}, tmp_path / "work", {"alpha": 4})   # resumed: nothing to run
     prov = json.loads((tmp_path / "work" / "provenance.json").read_text())
-    assert [e["options"] for e in prov["refined_on"]] == [{"alpha": 4}, {}]
+    assert [e["options"] for e in prov["refined_on"]] == [{"alpha": 4}, {"alpha": 4}]
     assert prov["refined_on"][0]["runs"] == ["short-1_paper_s0_usingall"] and prov["refined_on"][0]["host"]["cpu"]
     assert prov["refined_on"][1]["runs"] == []                                     # the resumed call refined nothing
     assert prov["scenes"]["1"] == {"rgb_sha256": digest, "marker_rgb_sha256": digest,
                                    "rendered_on": {"cpu": "renderer CPU"}, "hash": "h1"}
     (sdir / "rgb" / "000000.png").write_bytes(b"other bytes")                   # the images changed on disk
     assert suite_run.scene_provenance(tmp_path / "root", [1])["1"]["rgb_sha256"] != digest
+
+
+def test_resuming_with_other_refiner_options_is_refused(tmp_path, monkeypatch):
+    """Rows refined with one set of options are never mixed with, or reported as, another's: a
+    call whose done runs were refined with other options stops with one error naming the folder
+    and both option sets, before it writes anything."""
+    from ycbvss.errors import YcbvssError
+    from ycbvss.refine.matching import FlowOptions
+
+    class _Clip:
+        scene_id, name = 1, "short-1"
+
+    class _Run:
+        def __init__(self, key):
+            self.clip, self.key = _Clip(), key
+
+    monkeypatch.setattr(suite_run, "load_bop_scene", lambda *a, **k: None)
+    monkeypatch.setattr(suite_run, "scene_provenance", lambda *a, **k: {})
+    monkeypatch.setattr(suite_run, "run_one", lambda *a, **k: [{f: "1" for f in ROW_FIELDS}])
+    work = tmp_path / "work"
+    suite_run.execute([_Run("a")], tmp_path / "root", {}, work, {"flow": FlowOptions(winsize=15)})
+    rows_before = (work / "rows.csv").read_text()
+    prov_before = (work / "provenance.json").read_text()
+    with pytest.raises(YcbvssError, match="refined with the options") as e:
+        suite_run.execute([_Run("a"), _Run("b")], tmp_path / "root", {}, work, {"alpha": 4})
+    assert str(work) in str(e.value) and '"winsize": 15' in str(e.value) and '"alpha": 4' in str(e.value)
+    assert (work / "rows.csv").read_text() == rows_before and (work / "provenance.json").read_text() == prov_before
+    # the same options resume: only the missing run is refined
+    suite_run.execute([_Run("a"), _Run("b")], tmp_path / "root", {}, work, {"flow": FlowOptions(winsize=15)})
+    assert len(suite_run.read_rows(work / "rows.csv")) == 2

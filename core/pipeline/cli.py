@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from ..errors import YcbvssError
+from .options import add_options_arg, read_options_arg
 
 
 def _pos_float(s: str) -> float:
@@ -123,6 +124,7 @@ def _register_validate(subparsers) -> None:
     v.add_argument("--capture", default="", metavar="KINDS",
                    help="with --suite: also run the capture-range levels (init ADD 5..60 mm; PRJ 2..20 px at the paper's depth error) on these clip kinds")
     _common(v)
+    add_options_arg(v)
     v.set_defaults(func=_validate)
 
 
@@ -190,20 +192,21 @@ def _validate(args) -> int:
     from .validate import Stages, ValidateOptions, run_validate
     if not args.dataset.exists():
         raise YcbvssError("dataset not found", args.dataset)
+    refine_options = read_options_arg(args.options)    # checked before anything runs
     if args.suite:
-        return _validate_suite(args)
+        return _validate_suite(args, refine_options)
     opts = ValidateOptions(dataset=args.dataset, out=args.out, split=args.split, scenes=args.scenes, seed=args.seed,
                            init_add_mm=args.init_add_mm, init_prj_px=args.init_prj_px, real=args.real,
                            gt_exact=args.gt_exact, ablation=args.ablation, keyframe_step=args.keyframe_step,
                            max_frames=args.max_frames, frame_step=args.frame_step, workers=args.workers,
-                           samples=args.samples, overlays=args.overlays)
+                           samples=args.samples, overlays=args.overlays, refine_options=refine_options)
     stages = Stages()
     summary = run_validate(opts, stages)
     _print_summary(summary, "ycbvss validate" + (" --real" if args.real else ""), stages)
     return 0
 
 
-def _validate_suite(args) -> int:
+def _validate_suite(args, refine_options: dict | None = None) -> int:
     # lazy: the command's code loads only when it runs (`ycbvss --help` stays fast)
     from .suite_run import run_suite
 
@@ -219,7 +222,8 @@ def _validate_suite(args) -> int:
     except ValueError:
         raise YcbvssError(f"--suite-seeds must be a comma-separated list of integers, got {args.suite_seeds!r}")
     res = run_suite(args.dataset, args.out, args.suite, scene_ids=args.scenes, kinds=names(args.suite_kinds),
-                    seeds=seeds, ablation=args.ablation, capture_kinds=names(args.capture) if args.capture else ())
+                    seeds=seeds, ablation=args.ablation, capture_kinds=names(args.capture) if args.capture else (),
+                    refine_options=refine_options)
     for name, p in res["tables"].items():
         if p.suffix == ".md":
             print(p.read_text())

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from ..errors import YcbvssError
-from .options import add_split_option
+from .options import add_options_arg, add_split_option, read_options_arg
 
 
 def register(sub) -> None:
@@ -70,6 +70,7 @@ def register(sub) -> None:
                    help="hold the objects standing on the table at one height on the scenes of these viewing-"
                         "baseline groups (comma-separated: narrow, medium, wide), with or without --table-flow "
                         "(default: where the table's rotation term is on)")
+    add_options_arg(p)
     p.set_defaults(func=_run)
 
 
@@ -126,6 +127,8 @@ def _run(args: argparse.Namespace) -> int:
         opt.table_contact = False
         print("ycbvss: the dataset's models are enlarged (YCBV-SS, synth_report.json), so its objects do not "
               "stand on the table with their models' surfaces: table contact off", file=sys.stderr)
+    for k, v in read_options_arg(args.options).items():
+        setattr(opt, k, v)
     if not (opt.use_edge or opt.use_point):
         raise YcbvssError("at least one of the edge and point terms is needed (both disabled)")
     csv_init = None

@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import datetime as _dt
 import html
+import json
 import math
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from ..eval.tables import Row, Table, _fmt, ablation_table, error_table, to_mark
 from ..io.atomic import write_json_atomic, write_text_atomic
 from ..io.images import read_rgb
 from ..io.results import Estimate, write_bop19_csv
+from ..refine.options import options_to_json
 from ..progress import progress
 from ..render import Renderer
 from .figures import error_curves_png, overlay_figure, render_instances, write_overlay
@@ -256,6 +258,7 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
         "refined": m_ref,
         "variants_keyframes": {v: means(e) for v, e in (errs_kf or {}).items()},
         "refine_stats": {v: {str(s): d for s, d in st.items()} for v, st in refined["_stats"].items()},
+        "refine_options": options_to_json(getattr(opts, "refine_options", None)),
         "timings_s": dict(stages.times), **(opts.extra_info or {}),
     }
     info = [("dataset", str(opts.dataset)), ("scenes / frames / pairs",
@@ -263,6 +266,8 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
             ("initial poses", pr.summary()),
             ("refined (all terms)", f"mean ADD {m_ref['add_mm']:.3f} mm, mean PRJ {m_ref['prj_px']:.3f} px")]
     info += [(k, str(v)) for k, v in (opts.extra_info or {}).items()]
+    if summary["refine_options"]:
+        info.append(("refiner options (--options)", json.dumps(summary["refine_options"], sort_keys=True)))
     sections = _validation_sections(t4, t5, ts, curve_paths, ov, timings_table(stages))
     summary_path = out / "summary.json"
     write_json_atomic(summary_path, summary)
@@ -344,6 +349,7 @@ def write_real_outputs(out: Path, opts, scenes, models, orig, Ks, refined, diff,
                "scenes": [sc.scene_id for sc in scenes], "frames": sum(len(sc.frames) for sc in scenes),
                "pairs": len(orig), "original_vs_refined": m,
                "refine_stats": {v: {str(s): d for s, d in st.items()} for v, st in refined["_stats"].items()},
+               "refine_options": options_to_json(getattr(opts, "refine_options", None)),
                "timings_s": dict(stages.times)}
     write_json_atomic(out / "summary.json", summary)
     files.append(out / "summary.json")

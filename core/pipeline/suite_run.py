@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import gzip
 import hashlib
+import json
 import time
 import warnings
 from dataclasses import dataclass
@@ -31,6 +32,7 @@ from ..io.bop import load_bop_scene
 from ..io.provenance import host_record, rgb_sha256
 from ..progress import progress
 from ..refine.bundle import RefineOptions, refine_scene, ridge_fallback_objects
+from ..refine.options import options_to_json
 from .perturb import perturb_poses
 from .suite import Clip, SuiteScene, build_suite, clip_scene, clips_of
 from .suite_report import visibility, write_report
@@ -109,8 +111,7 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
     Ks = {k: next(f.camera.K for f in sc.frames if f.im_id == k[0]) for k in gt}
     pts = {o: models[o].vertices_mm for o in {k[1] for k in gt}}
     init = initial_poses(run, gt, Ks, pts)
-    kw = dict(VARIANTS[run.variant])
-    kw.update(opts_kw or {})
+    kw = {**(opts_kw or {}), **VARIANTS[run.variant]}      # an ablation variant's removed term stays removed
     step = kw.pop("keyframe_step", keyframe_step_for(len(sc.frames)))
     # the refiner's sampling seed follows the initialisation seed unless the options give their own
     ro = RefineOptions(**{"keyframe_step": step, "seed": run.seed, **kw})
@@ -246,7 +247,15 @@ def execute(runs: list[Run], root: Path, models: dict, out: Path, opts_kw: dict 
     todo = [r for r in runs if not (done_dir / f"{r.key}.json").is_file()]
     prov_path = out / "provenance.json"
     prov = read_json(prov_path, "suite provenance") if prov_path.is_file() else {}
-    prov.setdefault("refined_on", []).append({"host": host_record(), "options": opts_kw or {},
+    options = options_to_json(opts_kw)
+    # rows refined with other options are not this call's: resuming them would mix two refiners
+    earlier = [c.get("options", {}) for c in prov.get("refined_on", []) if c.get("runs")]
+    resumed = len(todo) < len(runs)
+    if resumed and any(o != options for o in earlier):
+        other = next(o for o in earlier if o != options)
+        raise YcbvssError(f"its runs were refined with the options {json.dumps(other, sort_keys=True)}, this call's are "
+                          f"{json.dumps(options, sort_keys=True)}: use another output folder", out)
+    prov.setdefault("refined_on", []).append({"host": host_record(), "options": options,
                                               "runs": [r.key for r in todo]})
     prov.setdefault("scenes", {}).update(scene_provenance(root, {r.clip.scene_id for r in runs}))
     write_json_atomic(prov_path, prov)
@@ -302,9 +311,10 @@ CAPTURE_PRJ_LEVELS = ("prj2", "prj10", "prj15", "prj20")
 
 def run_suite(src: str | Path, out: str | Path, suite: str = "ycbv21", scene_ids=None,
               kinds=("short", "medium", "long"), seeds=(0, 5), bias: bool = True, ablation: bool = True,
-              capture_kinds=(), capture_seeds=(0,), quiet: bool = False) -> dict:
+              capture_kinds=(), capture_seeds=(0,), quiet: bool = False, refine_options: dict | None = None) -> dict:
     """Build the suite (cached) under ``out/dataset``, run what is not done yet, write the report
-    into ``out/report``. Returns {"rows": path, "tables": {name: path}, "n_rows": int}."""
+    into ``out/report``. ``refine_options``: RefineOptions fields set on every run (``--options``).
+    Returns {"rows": path, "tables": {name: path}, "n_rows": int}."""
     out = Path(out)
     models, specs = build_suite(src, out / "dataset", suite, scene_ids=scene_ids, quiet=quiet)
     runs = plan(specs, kinds, seeds, ("paper",), variants=tuple(VARIANTS) if ablation else ("using all",),
@@ -312,11 +322,12 @@ def run_suite(src: str | Path, out: str | Path, suite: str = "ycbv21", scene_ids
     for spec in specs:
         for c in clips_of(spec, capture_kinds):
             runs += [Run(c, lv, s) for lv in CAPTURE_LEVELS + CAPTURE_PRJ_LEVELS for s in capture_seeds]
-    rows_path = execute(runs, out / "dataset", models, out / "runs")
+    rows_path = execute(runs, out / "dataset", models, out / "runs", refine_options or None)
     rows = read_rows(rows_path) if rows_path.is_file() else []
     tables = write_report(rows, models, out / "report", visibility(out / "dataset", [s.scene_id for s in specs]))
     write_json_atomic(out / "report" / "suite.json", {
         "suite": suite, "scenes": [s.scene_id for s in specs], "kinds": list(kinds), "seeds": list(seeds),
         "bias": bias, "ablation": ablation, "capture_kinds": list(capture_kinds), "n_rows": len(rows),
+        "refine_options": options_to_json(refine_options),
         "held_out": "scenes 3, 8, 9 and seeds >= 5"})
     return {"rows": rows_path, "tables": tables, "n_rows": len(rows)}

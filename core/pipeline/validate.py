@@ -63,6 +63,9 @@ class ValidateOptions:
     title: str = "ycbvss validation"
     originals: dict | None = None     # {(scene_id, im_id): path of the original (real) image} for overlays
     extra_info: dict = field(default_factory=dict)
+    # RefineOptions fields set for every refinement run (``--options``); an ablation variant's own
+    # setting (use_edge, use_point, use_temporal, table_contact) wins over them
+    refine_options: dict = field(default_factory=dict)
 
     def check(self) -> None:
         for name in ("init_add_mm", "init_prj_px"):
@@ -127,7 +130,7 @@ def _refine_job(vname: str, sc: Scene, models: dict, init: dict, kw: dict, opts:
     step = opts.keyframe_step or auto_keyframe_step(len(sc.frames))
     run_sc = sc if vname == "using all" else keyframe_scene(sc, step)
     run_step = step if vname == "using all" else 1
-    kw = dict(kw)
+    kw = {**opts.refine_options, **kw}
     if opts.max_iters:
         kw["max_iters"] = int(opts.max_iters)
     ro = RefineOptions(keyframe_step=run_step if run_step > 1 else 0, seed=opts.seed, compute_uncertainty=False, **kw)
