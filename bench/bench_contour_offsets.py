@@ -68,12 +68,13 @@ def gt_views(a: argparse.Namespace):
             yield models, sid, fr, fr.load_rgb(), vr, oids
 
 
-def gt_view_matches(vr, img: np.ndarray, lit: bool = False) -> tuple[list[int], list]:
+def gt_view_matches(vr, img: np.ndarray, lit: bool | np.ndarray = False) -> tuple[list[int], list]:
     """f_point's template-to-image flow matches of one GT view as the refiner makes them (default
     RefineOptions; crop coordinates): (object indices with at least ``min_visible_px`` visible,
-    their (src, dst) matches). ``lit``: the template lit by the fitted lighting
-    (``RefineOptions.template_shading``). Shared by ``bench_match_scale.py`` and
-    ``bench_template_shading.py``."""
+    their (src, dst) matches). ``lit``: True, the template lit by the fitted lighting
+    (``RefineOptions.template_shading``); an (H, W, 3) array, that colour as the template (of a
+    point-sampled render). Shared by ``bench_match_scale.py``, ``bench_template_shading.py`` and
+    ``bench_height_lighting.py``."""
     from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches_lit
     from ycbvss.refine.matching import min_eig_map
     from ycbvss.refine.templates import object_mask
@@ -83,8 +84,8 @@ def gt_view_matches(vr, img: np.ndarray, lit: bool = False) -> tuple[list[int], 
     box = y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
     masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
     # as the refiner makes them (a supersampled render: the pixel-area template, see RefineOptions.template_supersample)
-    matches, _ = _view_matches_lit(vr, img, box, True if lit else None, None, masks, opt.flow,
-                                   min_eig_map(img)[y0:y1, x0:x1])
+    colour = lit if isinstance(lit, np.ndarray) else (True if lit else None)
+    matches, _ = _view_matches_lit(vr, img, box, colour, None, masks, opt.flow, min_eig_map(img)[y0:y1, x0:x1])
     return objs, [(a[: opt.n_matches], b[: opt.n_matches]) for a, b in matches]
 
 

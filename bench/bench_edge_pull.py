@@ -70,6 +70,32 @@ def sample_classes(instance: np.ndarray, uv: np.ndarray, normals: np.ndarray, la
     return out
 
 
+def classed_samples(vr, cands, K: np.ndarray, T_m2c: np.ndarray, label: int, T_w2c: np.ndarray | None,
+                    table_mm: float, junction_px: float):
+    """The f_edge samples of the object drawn as ``label`` in ``vr`` from its candidates ``cands``
+    (:class:`ycbvss.refine.templates.EdgeCandidates` with contour normals), classed as in
+    :data:`CLASSES`: yields (interior, uv (N, 2), model points X (N, 3, mm), class (N,)) for the contour
+    then the interior samples. ``junction_px``: the T-junction radius (class 3); ``table_mm`` > 0
+    with ``T_w2c``: free contour samples that close to the table (world z = 0) are class 5."""
+    from ycbvss.geometry.se3 import inv_T
+    from ycbvss.refine.edge import junction_mask, occluded_pixels
+    from ycbvss.refine.jacobians import backproject_px
+
+    Pi = inv_T(T_m2c)
+    # the object's pixels within the refiner's junction radius of where a nearer object cuts its silhouette
+    junction = junction_mask(vr.instance, occluded_pixels(vr.instance, vr.depth_mm) & (vr.instance == label), junction_px)
+    c = cands
+    for interior, uv, dep, lbl in ((False, c.uv_c, c.d_c, c.l_c), (True, c.uv_i, c.d_i, c.l_i)):
+        m = (lbl == label) & (dep > 0)
+        X = backproject_px(K, uv[m], dep[m]) @ Pi[:3, :3].T + Pi[:3, 3]
+        cls = np.full(int(m.sum()), 4) if interior else sample_classes(vr.instance, uv[m], c.n_c[m], label, junction)
+        if table_mm > 0 and not interior and T_w2c is not None:
+            P = inv_T(T_w2c)
+            height_mm = (X @ T_m2c[:3, :3].T + T_m2c[:3, 3]) @ P[2, :3] + P[2, 3]
+            cls[(cls == 2) & (height_mm < table_mm)] = 5
+        yield interior, uv[m], X, cls
+
+
 def rotation_pull(K: np.ndarray, T_m2c: np.ndarray, X_model: np.ndarray, centre: np.ndarray, axis: int,
                   field, step_deg: float = 0.2, across: bool = False) -> np.ndarray:
     """(N,) dE / d deg of each model point X_model (N, 3, mm) for a turn of the object about its
@@ -112,12 +138,10 @@ def main() -> None:
     import cv2
 
     from ycbvss.eval.tables import Row, Table, write_table
-    from ycbvss.geometry.se3 import inv_T
     from ycbvss.io.images import write_png
     from ycbvss.pipeline.suite import load_clip
     from ycbvss.refine.bundle import RefineOptions
-    from ycbvss.refine.edge import edge_field, junction_mask, occluded_pixels
-    from ycbvss.refine.jacobians import backproject_px
+    from ycbvss.refine.edge import edge_field
     from ycbvss.refine.shading import lit_template, view_lighting
     from ycbvss.refine.templates import area_template, ensure_meshes, get_renderer, render_view, view_edge_candidates
 
@@ -175,25 +199,16 @@ def main() -> None:
         j = ids.index(a.obj)
         lab = vr.obj_index.index(j) + 1
         T = poses[j]
-        Pi = inv_T(T)
         fld = edge_field(img, 1.0, colour=True)
-        # the object's pixels within the refiner's junction radius of where a nearer object cuts its silhouette
-        junction = junction_mask(vr.instance, occluded_pixels(vr.instance, vr.depth_mm) & (vr.instance == lab),
-                                 RefineOptions().edge_junction_px * W / 640.0)
         per_class, dots = np.zeros(len(CLASSES)), []
         counts = np.zeros(len(CLASSES), int)
-        for interior, uv, dep, lbl in ((False, c.uv_c, c.d_c, c.l_c), (True, c.uv_i, c.d_i, c.l_i)):
-            m = (lbl == lab) & (dep > 0)
-            X = backproject_px(K, uv[m], dep[m]) @ Pi[:3, :3].T + Pi[:3, 3]
+        for interior, uv, X, cls in classed_samples(vr, c, K, T, lab, f.T_w2c, a.table_mm,
+                                                    RefineOptions().edge_junction_px * W / 640.0):
             pull = rotation_pull(K, T, X, centre, axis, fld, across=a.across)
-            cls = np.full(m.sum(), 4) if interior else sample_classes(vr.instance, uv[m], c.n_c[m], lab, junction)
-            if a.table_mm > 0 and not interior and f.T_w2c is not None:
-                height_mm = (X @ T[:3, :3].T + T[:3, 3]) @ inv_T(f.T_w2c)[2, :3] + inv_T(f.T_w2c)[2, 3]
-                cls[(cls == 2) & (height_mm < a.table_mm)] = 5
             for k in range(len(CLASSES)):
                 per_class[k] += pull[cls == k].sum()
                 counts[k] += int((cls == k).sum())
-            dots += [(p, q, interior) for p, q in zip(uv[m], pull)]
+            dots += [(p, q, interior) for p, q in zip(uv, pull)]
         totals += per_class
         for k, name in enumerate(CLASSES):
             rows.append(Row(f"frame {im}: {name}", [int(counts[k]), float(per_class[k])]))

@@ -48,11 +48,10 @@ def edge_step(models: dict, sc, obj: int, table_mm: float = 8.0, turn_deg: float
     """f_edge's gradient G (classes, 6), Gauss-Newton Hessian Hc (classes, 6, 6) and sample counts
     (classes,) of object ``obj`` at the exact GT over every frame of the clip scene ``sc`` (sample
     classes of :data:`bench_edge_pull.CLASSES`; DOFs of :data:`DOFS`)."""
-    from bench_edge_pull import CLASSES, sample_classes   # this folder (run as a script)
+    from bench_edge_pull import CLASSES, classed_samples   # this folder (run as a script)
 
-    from ycbvss.geometry.se3 import inv_T
-    from ycbvss.refine.edge import edge_field, junction_mask, occluded_pixels, sample_field
-    from ycbvss.refine.jacobians import backproject_px, project_points
+    from ycbvss.refine.edge import edge_field, sample_field
+    from ycbvss.refine.jacobians import project_points
     from ycbvss.refine.templates import render_view, view_edge_candidates
 
     centre = np.asarray(models[obj].vertices_mm, np.float64).mean(0)
@@ -72,22 +71,11 @@ def edge_step(models: dict, sc, obj: int, table_mm: float = 8.0, turn_deg: float
         j = ids.index(obj)
         if j not in vr.obj_index:
             continue
-        lab = vr.obj_index.index(j) + 1
         T = poses[j]
-        Pi = inv_T(T)
         fld = edge_field(img, 1.0, colour=True)
-        junction = junction_mask(vr.instance, occluded_pixels(vr.instance, vr.depth_mm) & (vr.instance == lab),
-                                 3.0 * W / 640.0)
-        for interior, uv, dep, lbl in ((False, c.uv_c, c.d_c, c.l_c), (True, c.uv_i, c.d_i, c.l_i)):
-            m = (lbl == lab) & (dep > 0)
-            if not m.any():
+        for _, _, X, cls in classed_samples(vr, c, K, T, vr.obj_index.index(j) + 1, f.T_w2c, table_mm, 3.0 * W / 640.0):
+            if not len(X):
                 continue
-            X = backproject_px(K, uv[m], dep[m]) @ Pi[:3, :3].T + Pi[:3, 3]
-            cls = np.full(int(m.sum()), 4) if interior else sample_classes(vr.instance, uv[m], c.n_c[m], lab, junction)
-            if not interior and table_mm > 0 and f.T_w2c is not None:
-                P = inv_T(f.T_w2c)
-                height_mm = (X @ T[:3, :3].T + T[:3, 3]) @ P[2, :3] + P[2, 3]
-                cls[(cls == 2) & (height_mm < table_mm)] = 5
             uv0, ok = project_points(K, T, X)
             _, g, Hx, inside = sample_field(fld, np.where(ok[:, None], uv0, -1e9))
             ok &= inside

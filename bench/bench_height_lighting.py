@@ -23,14 +23,11 @@ import numpy as np
 
 
 def main() -> None:
-    from bench_contour_offsets import add_view_args, gt_views   # this folder (run as a script)
+    from bench_contour_offsets import add_view_args, gt_view_matches, gt_views   # this folder (run as a script)
 
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.geometry.se3 import inv_T
-    from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches_lit
-    from ycbvss.refine.matching import min_eig_map
     from ycbvss.refine.shading import N_SH, height_basis, lit_template, view_lighting
-    from ycbvss.refine.templates import object_mask
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_view_args(ap)
@@ -40,7 +37,6 @@ def main() -> None:
     a = ap.parse_args()
     if a.supersample != 1:
         raise SystemExit("--supersample 1 only: the lit colours here are the point-sampled template's")
-    opt = RefineOptions()
     scales = [float(s) for s in a.scales_mm.split(",")]
     names = ["unlit", "SH lit"] + [f"SH + height {s:g} mm" for s in scales]
     stats: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
@@ -50,10 +46,6 @@ def main() -> None:
             continue
         P = inv_T(fr.T_w2c)                   # the suite's table is world z = 0: height = row 2 of camera -> world
         plane_c = (P[2, :3], float(P[2, 3]))
-        objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
-        box = y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
-        masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
-        me = min_eig_map(img)[y0:y1, x0:x1]
         colours = {"unlit": None, "SH lit": lit_template(vr.color, vr.normal, vr.instance, img)}
         for s, name in zip(scales, names[2:]):
             E = height_basis(vr.depth_mm, fr.camera.K, plane_c, s)
@@ -63,9 +55,7 @@ def main() -> None:
             weights[name].append(float(C[:, N_SH].mean()))
             colours[name] = lit_template(vr.color, vr.normal, vr.instance, img, coeffs=C, extra=E)
         for name, col in colours.items():
-            found, _ = _view_matches_lit(vr, img, box, col, None, masks, opt.flow, me)
-            for xs, xd in found:
-                xs, xd = xs[: opt.n_matches], xd[: opt.n_matches]
+            for xs, xd in gt_view_matches(vr, img, lit=False if col is None else col)[1]:
                 if len(xs) < a.min_matches:
                     continue
                 d = xd - xs

@@ -192,9 +192,7 @@ def test_fit_recovers_an_extra_multiplicative_basis():
     light /= np.linalg.norm(light)
     u = np.mgrid[0:n.shape[0], 0:n.shape[1]][1]
     extra = ((u // 8) % 2 == 0) * inside * 1.0                   # stripes: no function of the normal
-    s = 0.35 + np.clip(n @ (0.8 * light), 0, None) + 0.4 * extra
-    img = _linear_to_srgb_u8(srgb_to_linear(albedo) * s[..., None])
-    img[~inside] = 0
+    img = _lit(albedo, n, inside, 0.8 * light, 0.35 + 0.4 * extra)    # the stripes add to the ambient term
     C9 = fit_shading(img, albedo, n, inside)
     C10 = fit_shading(img, albedo, n, inside, extra=extra)
     assert C9.shape == (3, 9) and C10.shape == (3, 10)
