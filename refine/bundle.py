@@ -1360,7 +1360,7 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
               cam_move: tuple, visible: set, failed: set, turned_deg: np.ndarray,
               shift: tuple[np.ndarray, np.ndarray], view_contour_px: np.ndarray | None = None,
               turn_gain: dict | None = None, held_hidden: Collection[int] = (),
-              drifting: Collection[int] = ()) -> tuple[dict, dict, dict]:
+              drifting: Collection[int] = (), view_shift_px: np.ndarray | None = None) -> tuple[dict, dict, dict]:
     """Status, confidence and reasons per pose (:func:`ycbvss.refine.confidence.classify`) from the
     calibrated statistical sigmas (without the systematic floor), the contour quality, the last outer iteration's moves (mm, deg) of the
     pose's object and camera, the object's turn (deg) and its centre's shift and initial scatter (px,
@@ -1370,7 +1370,9 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
     object without a visible contour of its own stays unverified (its view's offset can only fail it).
     ``turn_gain``: obj_id -> :class:`_TurnFit` (:func:`_turn_gains`), recorded in ``quality``.
     ``held_hidden``: obj_ids the keyframe bundle held because a level hid them in every view.
-    ``drifting``: obj_ids still drifting one way when the keyframe bundle's iteration cap ended it."""
+    ``drifting``: obj_ids still drifting one way when the keyframe bundle's iteration cap ended it.
+    ``view_shift_px`` (n,): the median 2-D template shift of each view's objects
+    (:mod:`ycbvss.refine.view_shift`), the check of the view's camera."""
     status, confidence, reasons = {}, {}, {}
     turn_gain = turn_gain or {}
     for (im, oid), P in poses.items():
@@ -1392,7 +1394,8 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
                       turn_label=tf.label if tf else "",
                       interior_ncc=tf.ncc if tf else float("nan"), texture=tf.texture if tf else float("nan"),
                       worst_contour_px=quality[oid].get("contour_worst_px", float("nan")),
-                      held_hidden=oid in held_hidden, drifting=oid in drifting)
+                      held_hidden=oid in held_hidden, drifting=oid in drifting,
+                      view_shift_px=float(view_shift_px[i]) if view_shift_px is not None else float("nan"))
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
@@ -2012,8 +2015,9 @@ def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, imag
     stats["sigma_scale"] = list(sigma_scale(group))
     stats["sigma_floor"] = list(sigma_floor(group))
     t0 = time.perf_counter()
-    quality, view_px = _quality_on_views(views, models, obj_ids, known & ~bad_obj, poses, opt, imgs)
+    quality, view_px, view_shift = _quality_on_views(views, models, obj_ids, known & ~bad_obj, poses, opt, imgs)
     stats["view_contour_px"] = [round(float(x), 3) for x in view_px]
+    stats["view_shift_px"] = [round(float(x), 2) for x in view_shift]
     turn_gain = (_turn_gains(views, models, obj_ids, known & ~bad_obj, poses, syms, imgs)
                  if opt.turn_check else {})
     stats["confidence_s"] = time.perf_counter() - t0
@@ -2022,7 +2026,7 @@ def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, imag
                                             _turn_from_init_deg(syms, pb0.T_m, T_m),
                                             _shift_from_init_px(models, views, vidx, obj_ids, init, init_poses, poses),
                                             view_px, turn_gain, stats.get("held_hidden", ()),
-                                            {obj_ids[j] for j in ks.stage.drifting_objects})
+                                            {obj_ids[j] for j in ks.stage.drifting_objects}, view_shift)
     stats["drifting_at_cap"] = sorted(int(obj_ids[j]) for j in ks.stage.drifting_objects)
     stats["total_s"] = time.perf_counter() - t_start
     stats.update({k: round(v, 4) for k, v in stats.items() if isinstance(v, float)})

@@ -16,6 +16,11 @@ Three measurements per object of a scene:
   ``contour_worst_px`` (:func:`worst_views_px`): the object's offset in its worst views (all of
   them, not the median's few), so a pose that fits the views where the object is mostly hidden
   but not those that show it is not verified by the former.
+- ``view_shift_px`` (:mod:`ycbvss.refine.view_shift`): per view, the median over its objects of
+  the 2-D shift (within +-16 px) at which each object's template edges fit the image's best. The
+  contour offset reaches +-3 px only; a camera solved several pixels off can read under 1 px there
+  (long-1 from ADD 60 mm with four outer iterations per coarse level: frame 21, 0.87 px) and reads
+  8.9 px here.
 - ``sigma``: per-pose standard deviations from the bundle covariance, multiplied by the
   calibration factors ``SIGMA_SCALE_NARROW`` / ``SIGMA_SCALE_WIDE`` measured on the ycbv21 suite
   (the statistical part, ``sigma_stat_*``), folded into one ``sigma_add_mm`` (the ADD a 1-sigma
@@ -41,7 +46,8 @@ fits the texture inside its silhouette badly at the refined pose
 moving, the object was still drifting one way (more than ``RefineOptions.extend_mm`` per outer
 iteration, in the previous iteration's direction) when the finest level's iteration cap ended the
 keyframe bundle, the object had no image terms, or no visible contour of its own (a view's offset over
-its other objects can fail a pose, not verify it); ``converged`` otherwise. ``converged`` therefore means:
+its other objects can fail a pose, not verify it), or its view's objects fit the image edges
+best more than ``VIEW_SHIFT_PX`` away (its view's camera is off); ``converged`` otherwise. ``converged`` therefore means:
 the pose stopped (last outer step below ``MOVE_TOL_MM`` / ``MOVE_TOL_DEG`` and not drifting one way at
 the cap), its silhouette lies on
 image edges and its calibrated uncertainty is small.
@@ -89,6 +95,10 @@ SHIFT_SCATTER_K = 3.0
 # above OK_PX the pose is uncertain.
 WORST_VIEWS_FRAC = 0.05
 CLEAR_VIEW_FRAC = 0.5
+# A view's camera is checked by the median over its objects of the 2-D shift that best fits each
+# object's template edges to the image's (refine.view_shift): a correct view reads 0-1 px; long-1's
+# frame 21 solved 4.5 deg off (see refine.view_shift) read 8.9 px while its contour offsets read 0.87 px.
+VIEW_SHIFT_PX = 3.0
 SIGMA_OK_MM = 2.0
 CONF_SIGMA_MM = 4.0
 MOVE_TOL_MM = 0.25
@@ -327,7 +337,7 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
              turn_fit: float = float("nan"), turn_label: str = "", own_contour: bool = True,
              worst_contour_px: float = float("nan"), held_hidden: bool = False,
              interior_ncc: float = float("nan"), texture: float = float("nan"),
-             drifting: bool = False) -> PoseStatus:
+             drifting: bool = False, view_shift_px: float = float("nan")) -> PoseStatus:
     """Status and confidence of one pose (see the module docstring for the rules). ``contour_px``
     is measured in an image ``width_px`` wide; the thresholds ``OK_PX`` / ``FAIL_PX`` hold at
     ``REF_WIDTH_PX`` (YCB-V's 640 px) and scale with the width, so an offset means the same
@@ -341,7 +351,11 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
     ``drifting``: the object still moved one way (more than ``RefineOptions.extend_mm`` per outer
     iteration, in the previous iteration's direction) when the finest level's iteration cap ended
     the refinement (``refine.bundle._Stage._iterate``): uncertain, confidence x 0.7 -- however small
-    that last step was against its sigma, a pose that has not stopped has not converged."""
+    that last step was against its sigma, a pose that has not stopped has not converged.
+    ``view_shift_px``: the median over the pose's view's objects of the 2-D shift (px, at
+    ``width_px``) at which their templates fit the image's edges best
+    (:mod:`ycbvss.refine.view_shift`); above ``VIEW_SHIFT_PX`` (scaled with the width) the view's
+    camera is off and every pose of the view is uncertain, confidence halved."""
     if numerical_failure:
         return PoseStatus("failed", 0.0, "numerical failure")
     reasons = []
@@ -383,6 +397,10 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         reasons.append(f"the texture inside its silhouette does not match (NCC {interior_ncc:.2f})")
         conf *= 0.5
     if held_hidden:
+        conf *= 0.5
+    if np.isfinite(view_shift_px) and view_shift_px > VIEW_SHIFT_PX * width_px / REF_WIDTH_PX:
+        reasons.append(f"its view's objects fit the image edges {view_shift_px:.1f} px away (median): "
+                       "the view's camera is off")
         conf *= 0.5
     if np.isfinite(contour_px) and contour_px > fail_px:
         # the contour's offset first, then whatever else was found (a held object says so)

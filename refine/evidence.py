@@ -15,6 +15,7 @@ from .edge import gradient_magnitude
 from .shading import lit_template
 from .templates import ViewRender, _subpixel_K, composite, get_renderer, mesh_key, render_view
 from .threads import view_pool as _view_pool
+from .view_shift import REACH_PX, REF_WIDTH_PX, object_shift_px, view_shift_px
 from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, views_ncc
 
 if TYPE_CHECKING:
@@ -24,12 +25,15 @@ if TYPE_CHECKING:
 
 def _view_contour_offsets(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict,
                           renderer=None, image_mags: list | None = None,
-                          lengths: dict | None = None, lit: bool = False) -> dict[int, dict[int, float]]:
+                          lengths: dict | None = None, lit: bool = False,
+                          shifts: dict | None = None) -> dict[int, dict[int, float]]:
     """Per view (its index in ``views``, whose images are loaded): obj_id -> offset (px) of the
     object's visible contour from the image's edges at the refined poses
     (:func:`ycbvss.refine.confidence.contour_offset_px`; objects without a visible contour left out).
     ``image_mags``: the views' image gradient magnitudes (σ 1 px) when already computed.
     ``lengths`` (a dict, filled when given): view index -> obj_id -> visible contour pixels.
+    ``shifts`` (a dict, filled when given): view index -> obj_id -> the object's 2-D template
+    shift (px, :func:`ycbvss.refine.view_shift.object_shift_px`), for every measured object.
     ``lit``: the template is lit by the lighting fitted to the view's image
     (:func:`ycbvss.refine.shading.lit_template`), so shading edges inside the silhouette (a mug's
     inner wall, a can's rim) are in the template as in the image instead of pulling the
@@ -42,10 +46,13 @@ def _view_contour_offsets(views: list, models: dict, obj_ids: list, ok: np.ndarr
     def collect(n_left: int) -> None:
         while len(pending) > n_left:
             i, job = pending.pop(0)
-            for o, (r, n_px) in job.result().items():
-                out[i][o] = r
-                if lengths is not None:
-                    lengths.setdefault(i, {})[o] = n_px
+            for o, (r, n_px, sh) in job.result().items():
+                if np.isfinite(r):
+                    out[i][o] = r
+                    if lengths is not None:
+                        lengths.setdefault(i, {})[o] = n_px
+                if shifts is not None and np.isfinite(sh):
+                    shifts.setdefault(i, {})[o] = sh
 
     for i, v in enumerate(views):
         P = {j: poses[(v.im_id, o)] for j, o in enumerate(obj_ids) if ok[j] and (v.im_id, o) in poses}
@@ -53,25 +60,30 @@ def _view_contour_offsets(views: list, models: dict, obj_ids: list, ok: np.ndarr
             continue
         vr = render_view(renderer, models, obj_ids, v.K, v.width, v.height, P)
         pending.append((i, _view_pool().submit(_one_view_contour_offsets, vr, v.image, obj_ids,
-                                               image_mags[i] if image_mags is not None else None, lit)))
+                                               image_mags[i] if image_mags is not None else None, lit,
+                                               shifts is not None)))
         collect(4)              # at most 4 views' renders in flight (bounded memory)
     collect(0)
     return out
 
 
 def _one_view_contour_offsets(vr: ViewRender, image: np.ndarray, obj_ids: list, mag: np.ndarray | None,
-                              lit: bool) -> dict[int, tuple[float, int]]:
-    """One view of :func:`_view_contour_offsets`: obj_id -> (offset px, visible contour pixels) of
-    the objects with a visible contour in the template render ``vr``."""
+                              lit: bool, with_shift: bool = False) -> dict[int, tuple[float, int, float]]:
+    """One view of :func:`_view_contour_offsets`: obj_id -> (offset px, visible contour pixels,
+    2-D template shift px at the image width's reach, :func:`ycbvss.refine.view_shift.object_shift_px`)
+    of the objects in the template render ``vr`` (NaN offset / shift where not measurable; the shift
+    only ``with_shift``)."""
     mag = gradient_magnitude(image, 1.0) if mag is None else mag
     if lit and vr.normal is not None:
         vr = dc_replace(vr, color=lit_template(vr.color, vr.normal, vr.instance, image, max_px=8000))
     mag_t = gradient_magnitude(composite(vr, image), 1.0)
     res = {}
+    reach = REACH_PX * image.shape[1] / REF_WIDTH_PX
     for j in vr.obj_index:
         r, n_px = contour_offset_px(mag, mag_t, vr.instance, vr.depth_mm, vr.label_of(j), return_length=True)
-        if np.isfinite(r):
-            res[obj_ids[j]] = (float(r), int(n_px))
+        sh = object_shift_px(mag, mag_t, vr.instance == vr.label_of(j), reach)[0] if with_shift else float("nan")
+        if np.isfinite(r) or np.isfinite(sh):
+            res[obj_ids[j]] = (float(r), int(n_px), float(sh))
     return res
 
 
@@ -90,10 +102,12 @@ def _object_quality(per_view: dict[int, dict[int, float]], models: dict, obj_ids
 
 
 def _contour_offsets_all_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict,
-                               imgs: _SceneImages, chunk: int = 40, lit: bool = True) -> tuple[dict, dict]:
+                               imgs: _SceneImages, chunk: int = 40, lit: bool = True,
+                               shifts: dict | None = None) -> tuple[dict, dict]:
     """:func:`_view_contour_offsets` of every view (lit template by default, as the status reads
     them), images loaded ``chunk`` at a time (bounded memory): (view index -> obj_id -> offset px,
-    view index -> obj_id -> visible contour pixels)."""
+    view index -> obj_id -> visible contour pixels). ``shifts`` (a dict, filled when given): view
+    index -> obj_id -> 2-D template shift (px)."""
     renderer = get_renderer()
     per_view: dict[int, dict[int, float]] = {}
     lengths: dict[int, dict[int, int]] = {}
@@ -101,9 +115,13 @@ def _contour_offsets_all_views(views: list, models: dict, obj_ids: list, ok: np.
         idx = list(range(c0, min(c0 + chunk, len(views))))
         imgs.keep(idx)
         sub_len: dict = {}
-        sub = _view_contour_offsets([views[i] for i in idx], models, obj_ids, ok, poses, renderer, lengths=sub_len, lit=lit)
+        sub_sh: dict = {}
+        sub = _view_contour_offsets([views[i] for i in idx], models, obj_ids, ok, poses, renderer, lengths=sub_len,
+                                    lit=lit, shifts=sub_sh)
         per_view.update({idx[k]: d for k, d in sub.items()})
         lengths.update({idx[k]: d for k, d in sub_len.items()})
+        if shifts is not None:
+            shifts.update({idx[k]: d for k, d in sub_sh.items()})
     imgs.keep([])
     return per_view, lengths
 
@@ -118,21 +136,25 @@ def _worst_views(per_view: dict, lengths: dict, obj_ids: list) -> dict[int, floa
 
 
 def _quality_on_views(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, opt: RefineOptions,
-                      imgs: _SceneImages, n_views: int = 8, chunk: int = 40) -> tuple[dict, np.ndarray]:
+                      imgs: _SceneImages, n_views: int = 8, chunk: int = 40) -> tuple[dict, np.ndarray, np.ndarray]:
     """Contour offsets of every view (:func:`_contour_offsets_all_views`). Returns (per-object
     quality from up to ``n_views`` evenly spaced views, :func:`_object_quality`, with
     ``contour_worst_px`` from all views, :func:`_worst_views`; per-view median over its objects'
     offsets (n,), NaN where no contour is visible): a camera left off puts every object of its view
-    off the image edges, which the per-object median over a few views does not see."""
+    off the image edges, which the per-object median over a few views does not see; per-view median
+    of its objects' 2-D template shifts (n,) px (:func:`ycbvss.refine.view_shift.view_shift_px`), the
+    same check for a camera several pixels off, beyond the contour offset's reach."""
     n = len(views)
-    per_view, lengths = _contour_offsets_all_views(views, models, obj_ids, ok, poses, imgs, chunk)
+    shifts: dict = {}
+    per_view, lengths = _contour_offsets_all_views(views, models, obj_ids, ok, poses, imgs, chunk, shifts=shifts)
     q_idx = np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))
     quality = _object_quality({int(i): per_view[int(i)] for i in q_idx}, models, obj_ids)
     for o, w in _worst_views(per_view, lengths, obj_ids).items():
         quality[o]["contour_worst_px"] = w
     view_px = np.array([float(np.median(list(per_view[i].values()))) if per_view[i] else float("nan")
                         for i in range(n)])
-    return quality, view_px
+    view_shift = np.array([view_shift_px(shifts.get(i, {}).values()) for i in range(n)])
+    return quality, view_px, view_shift
 
 
 class _TurnFit(NamedTuple):
