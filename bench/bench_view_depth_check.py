@@ -1,11 +1,13 @@
-"""How far along the line of sight a frame's poses can be off before the status's per-view contour
-check sees it.
+"""How far along the line of sight a frame's poses can be off before the status's per-view checks
+see it: the contour offset and (since session 74) the 2-D template shift.
 
 The status reads, per view, the median over its objects of each object's contour offset from the
 image's edges (:mod:`ycbvss.refine.evidence`, lit templates, as the status does); above 1 px (at
 640 px width) every pose of the view is `uncertain`. This bench takes frames of one suite clip at
 the exact GT, moves every object of the frame nearer to the camera by d mm (what a non-keyframe
-camera off along its optical axis does) and prints each object's offset and the view's median.
+camera off along its optical axis does) and prints each object's offset and the view's median,
+and the view's median 2-D template shift (:mod:`ycbvss.refine.view_shift`; above 3 px at 640 px
+every pose of the view is `uncertain`).
 
     python bench/bench_view_depth_check.py --dataset ../shared/data/ycbv --suite-root /tmp/suite/full \
         --clip long-1 --frames 21,100 --out bench/results/ycbv21/s72/view_depth_check
@@ -22,7 +24,8 @@ import numpy as np
 def main() -> None:
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.pipeline.suite import load_clip
-    from ycbvss.refine.confidence import OK_PX
+    from ycbvss.refine.confidence import OK_PX, VIEW_SHIFT_PX
+    from ycbvss.refine.view_shift import view_shift_px
     from ycbvss.refine.evidence import _view_contour_offsets
     from ycbvss.refine.templates import ensure_meshes, get_renderer
 
@@ -52,14 +55,19 @@ def main() -> None:
                 T = i.T_m2c.copy()
                 T[2, 3] -= d
                 poses[(im, i.obj_id)] = T
-            off = _view_contour_offsets([view], models, ids, np.ones(len(ids), bool), poses, r, lit=True)[0]
+            shifts: dict = {}
+            off = _view_contour_offsets([view], models, ids, np.ones(len(ids), bool), poses, r, lit=True,
+                                        shifts=shifts)[0]
             vals = [off.get(o, float("nan")) for o in obj_cols]
-            rows.append(Row(f"frame {im}, {d:g} mm nearer", vals + [float(np.nanmedian(vals))],
+            rows.append(Row(f"frame {im}, {d:g} mm nearer",
+                            vals + [float(np.nanmedian(vals)), view_shift_px(shifts.get(0, {}).values())],
                             rule_before=d == 0.0 and bool(rows)))
     t = Table(caption=f"{a.clip}: per-object contour offset (px) and the view's median when every object of the frame "
                       f"is moved nearer along the camera's optical axis (the status's per-view check: > {OK_PX:g} px is "
-                      f"uncertain at 640 px width)",
-              label_header="frame, shift", columns=[f"obj {o}" for o in obj_cols] + ["view median"], rows=rows, digits=2)
+                      f"uncertain at 640 px width), and the view's median 2-D template shift (px; > {VIEW_SHIFT_PX:g} px "
+                      f"is uncertain)",
+              label_header="frame, shift", columns=[f"obj {o}" for o in obj_cols] + ["view median", "view shift"],
+              rows=rows, digits=2)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     for p in write_table(t, out, "view_depth_check"):
