@@ -12,7 +12,7 @@ the 1 px bound, and six of its poses (15-49 mm off) were reported ``converged``.
 lit template composited over the image, inside its visible silhouette grown by a few pixels)
 against the image's edge magnitude over +-``reach_px`` in both axes by normalised
 cross-correlation (OpenCV ``matchTemplate``, masked). A pose that fits reads 0 (or 1) px; on that
-frame the objects read 1-23 px, median 8.9 px, and the correctly solved frames beside it 0 px.
+frame the objects read 1-18 px, median 8.9 px, and the correctly solved frames beside it 0 px.
 The view's median over its objects (:func:`view_shift_px`) is a check of the view's camera: a
 camera solved wrongly moves every object of its view in the image.
 """
