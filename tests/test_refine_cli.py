@@ -59,6 +59,10 @@ def test_cli_refine_writes_all_outputs(bop_root, tmp_path):
     assert len(log["log"]) > 3 and "total_s" in log["stats"]
     world = json.loads((out / "refine" / "000001_world.json").read_text())
     assert len(world["T_m2w"]) == 5
+    status = json.loads((out / "refine" / "000001_status.json").read_text())
+    assert [v["im_id"] for v in status["views"]] == sorted({k[0] for k in gt})
+    assert all(v["shift_px"] is not None and 0.0 <= v["shift_px"] <= 16.0 for v in status["views"])
+    assert len(status["poses"]) == 20
 
 
 def test_cli_refine_bad_init_is_one_line_error(bop_root, tmp_path, capsys):
