@@ -211,3 +211,36 @@ def test_contour_check_reads_the_blender_images_at_the_exact_gt_and_off_it(suite
     for o in obj_ids:
         assert at_gt[o] < 0.8 * OK_PX, (o, at_gt)
         assert off[o] > OK_PX, (o, off)
+
+
+def test_view_shift_reads_the_blender_images_at_the_exact_gt_and_off_it(suite_ci):
+    """The status's per-view camera check (:mod:`ycbvss.refine.view_shift`) on Cycles images: at
+    the exact GT every view reads 0 px; every object moved 8 mm along the camera x axis (a camera
+    off by as much) reads about that many pixels; moved 30 mm, beyond the +-16 px reach, still
+    well above the 3 px bound. Measured: 0 px; 9-10 px; ~16 px (4 mm: 4-5 px)."""
+    from ycbvss.pipeline.suite import clip_scene
+    from ycbvss.refine import bundle as B
+    from ycbvss.refine import evidence as Ev
+    from ycbvss.refine.confidence import VIEW_SHIFT_PX
+    from ycbvss.refine.templates import ensure_meshes, get_renderer
+    from ycbvss.refine.view_shift import view_shift_px
+
+    models, scene, clip = suite_ci
+    sc = clip_scene(scene, clip)
+    frames, views, imgs, _ = B._scene_views(sc, None)
+    gt = {(f.im_id, i.obj_id): i.T_m2c for f in frames for i in f.instances}
+    obj_ids = sorted({k[1] for k in gt})
+    ensure_meshes(get_renderer(), models)
+
+    def per_view(dx_mm):
+        poses = {k: T.copy() for k, T in gt.items()}
+        for T in poses.values():
+            T[0, 3] += dx_mm
+        sh: dict = {}
+        Ev._contour_offsets_all_views(views, models, obj_ids, np.ones(len(obj_ids), bool), poses, imgs, shifts=sh)
+        return np.array([view_shift_px(sh.get(i, {}).values()) for i in range(len(views))])
+
+    at_gt, off8, off30 = per_view(0.0), per_view(8.0), per_view(30.0)
+    assert np.all(at_gt <= 1.0), at_gt
+    assert np.all((off8 >= 6.0) & (off8 <= 13.0)), off8
+    assert np.all(off30 > 3 * VIEW_SHIFT_PX), off30
