@@ -10,12 +10,12 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from ..geometry.model_frame import bbox_center
-from .confidence import contour_offset_px, worst_views_px
+from .confidence import REF_WIDTH_PX, contour_offset_px, worst_views_px
 from .edge import gradient_magnitude
 from .shading import lit_template
 from .templates import ViewRender, _subpixel_K, composite, get_renderer, mesh_key, render_view
 from .threads import view_pool as _view_pool
-from .view_shift import REACH_PX, REF_WIDTH_PX, object_shift_px, view_shift_px
+from .view_shift import REACH_PX, object_shift_px, view_shift_px
 from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, views_ncc
 
 if TYPE_CHECKING:

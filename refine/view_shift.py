@@ -21,8 +21,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-REF_WIDTH_PX = 640
-REACH_PX = 16.0          # search half-width at REF_WIDTH_PX (scaled with the width)
+REACH_PX = 16.0          # search half-width at 640 px width (refine.confidence.REF_WIDTH_PX; callers scale it)
 DILATE_PX = 2            # the silhouette grown by this much, so its own edge is inside the mask
 MIN_PX = 200             # objects with fewer visible pixels are not measured
 MIN_GAIN_NCC = 0.05      # a shifted peak counts only when it correlates this much better than no shift
