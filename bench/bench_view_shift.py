@@ -19,33 +19,23 @@ import argparse
 import json
 import os
 import pickle
-import time
-import warnings
 from pathlib import Path
 
 import numpy as np
 
 
 def refine_clip(dataset: str, root: str, clip_name: str, init_mode: str, seed: int, options: dict) -> dict:
-    """Refine a suite clip as ``bench/suite_runs.py`` does; returns the result's poses, statuses,
-    reasons and stats with the clip's GT and initial poses."""
-    from ycbvss.pipeline.suite import build_suite, clips_of, load_clip
-    from ycbvss.pipeline.suite_run import Run, initial_poses, keyframe_step_for
-    from ycbvss.refine import RefineOptions, refine_scene
+    """Refine a suite clip as ``bench/suite_runs.py`` does (:func:`ycbvss.pipeline.suite_run.refine_run`);
+    returns the result's poses, statuses, reasons and stats with the clip's GT and initial poses."""
+    from ycbvss.io.bop import load_bop_scene
+    from ycbvss.pipeline.suite import build_suite, clips_of
+    from ycbvss.pipeline.suite_run import Run, refine_run
 
-    models, sc = load_clip(dataset, root, clip_name, quiet=True)
-    _, specs = build_suite(dataset, root, "ycbv21", scene_ids=[int(clip_name.rsplit("-", 1)[1])], quiet=True)
+    models, specs = build_suite(dataset, root, "ycbv21", scene_ids=[int(clip_name.rsplit("-", 1)[1])], quiet=True)
     clip = next(c for sp in specs for c in clips_of(sp) if c.name == clip_name)
-    gt = {(f.im_id, i.obj_id): i.T_m2c for f in sc.frames for i in f.instances}
-    Ks = {k: next(f.camera.K for f in sc.frames if f.im_id == k[0]) for k in gt}
-    pts = {o: models[o].vertices_mm for o in {k[1] for k in gt}}
-    init = initial_poses(Run(clip, init_mode, seed), gt, Ks, pts)
-    ro = RefineOptions(**{"keyframe_step": keyframe_step_for(len(sc.frames)), "seed": seed, **options})
-    t0 = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = refine_scene(sc, models, init, ro)
-    print(f"refined in {time.perf_counter() - t0:.0f} s")
+    scene = load_bop_scene(Path(root) / "test", clip.scene_id, models)
+    res, _, gt, init, _, dt = refine_run(Run(clip, init_mode, seed), scene, models, options)
+    print(f"refined in {dt:.0f} s")
     return {"poses": res.poses, "status": res.status, "reasons": res.reasons, "stats": res.stats, "gt": gt,
             "init": init}
 

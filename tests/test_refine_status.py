@@ -190,14 +190,9 @@ def test_a_non_keyframe_is_no_more_settled_than_its_keyframes():
     assert classify(0.3, 0.5, mm[1], True).status == "uncertain"
 
 
-def test_a_camera_left_off_flags_every_pose_of_its_view(scene3):
-    """A camera solved wrongly (here: every object of view 1 shifted 4 mm sideways, about 2 px) while
-    the objects fit the other views: the per-object median over views still reads a tight contour,
-    the per-view median does not, and the view's poses are no longer 'converged'. Found on the suite
-    (long clip 1 from initial ADD 40 mm): frames 0 and 63 ended 5 deg off on all objects (ADD 12-32 mm),
-    reported converged."""
-    from ycbvss.refine import bundle as B
-    from ycbvss.refine import evidence as Ev
+def _view1_moved(scene3, dx_mm: float) -> tuple[list, list, dict]:
+    """(views with images, obj_ids, the exact poses with every object of view 1 moved ``dx_mm``
+    along the camera x axis) of the 3-view scene."""
     from ycbvss.refine.problem import View
     from ycbvss.refine.templates import ensure_meshes, get_renderer
 
@@ -208,7 +203,21 @@ def test_a_camera_left_off_flags_every_pose_of_its_view(scene3):
     obj_ids = sorted({i.obj_id for f in frames for i in f.instances})
     poses = {k: T.copy() for k, T in gt.items()}
     for o in obj_ids:
-        poses[(frames[1].im_id, o)][:3, 3] += (4.0, 0.0, 0.0)
+        poses[(frames[1].im_id, o)][:3, 3] += (dx_mm, 0.0, 0.0)
+    return views, obj_ids, poses
+
+
+def test_a_camera_left_off_flags_every_pose_of_its_view(scene3):
+    """A camera solved wrongly (here: every object of view 1 shifted 4 mm sideways, about 2 px) while
+    the objects fit the other views: the per-object median over views still reads a tight contour,
+    the per-view median does not, and the view's poses are no longer 'converged'. Found on the suite
+    (long clip 1 from initial ADD 40 mm): frames 0 and 63 ended 5 deg off on all objects (ADD 12-32 mm),
+    reported converged."""
+    from ycbvss.refine import bundle as B
+    from ycbvss.refine import evidence as Ev
+
+    ps, _, _ = scene3
+    views, obj_ids, poses = _view1_moved(scene3, 4.0)
     per_view = Ev._view_contour_offsets(views, ps.models, obj_ids, np.ones(len(obj_ids), bool), poses)
     view_px = np.array([np.median(list(per_view[i].values())) for i in range(len(views))])
     quality = Ev._object_quality(per_view, ps.models, obj_ids)
@@ -221,10 +230,27 @@ def test_a_camera_left_off_flags_every_pose_of_its_view(scene3):
             np.zeros(len(obj_ids)), (np.zeros(len(obj_ids)), np.full(len(obj_ids), 4.0)))
     before, _, _ = B._statuses(*args)
     after, conf, reasons = B._statuses(*args, view_contour_px=view_px)
-    bad = [k for k in poses if k[0] == frames[1].im_id]
+    bad = [k for k in poses if k[0] == views[1].im_id]
     assert any(before[k] == "converged" for k in bad), before
     assert all(after[k] != "converged" for k in bad), reasons
     assert all(after[k] == before[k] for k in poses if k not in bad)
+
+
+def test_a_view_whose_objects_are_all_moved_reads_their_2d_shift(scene3):
+    """The per-view camera check (:mod:`ycbvss.refine.view_shift`): fast-rendered views at the
+    exact poses read 0-1 px; every object of view 1 moved 20 mm sideways (about 6-8 px at 320 px
+    and 0.8-1 m) reads several pixels there only."""
+    from ycbvss.refine import evidence as Ev
+    from ycbvss.refine.confidence import VIEW_SHIFT_PX
+    from ycbvss.refine.view_shift import view_shift_px
+
+    ps, _, _ = scene3
+    views, obj_ids, poses = _view1_moved(scene3, 20.0)
+    shifts: dict = {}
+    Ev._view_contour_offsets(views, ps.models, obj_ids, np.ones(len(obj_ids), bool), poses, shifts=shifts)
+    per_view = [view_shift_px(shifts.get(i, {}).values()) for i in range(len(views))]
+    assert per_view[0] <= 1.0 and per_view[2] <= 1.0, per_view
+    assert per_view[1] > VIEW_SHIFT_PX * 320 / 640 * 2, per_view
 
 
 def test_a_non_keyframe_starts_from_the_camera_the_image_supports(scene3):

@@ -180,24 +180,29 @@ def test_an_object_turned_about_its_axis_is_recovered_by_its_texture(suite_ci):
     assert all("fits the texture" not in res.reasons[k] for k in keys)
 
 
+def _clip_views(suite_ci) -> tuple:
+    """(models, the CI clip's views, their image loader, GT poses, obj_ids), meshes added to the renderer."""
+    from ycbvss.pipeline.suite import clip_scene
+    from ycbvss.refine import bundle as B
+    from ycbvss.refine.templates import ensure_meshes, get_renderer
+
+    models, scene, clip = suite_ci
+    frames, views, imgs, _ = B._scene_views(clip_scene(scene, clip), None)
+    gt = {(f.im_id, i.obj_id): i.T_m2c for f in frames for i in f.instances}
+    ensure_meshes(get_renderer(), models)
+    return models, views, imgs, gt, sorted({k[1] for k in gt})
+
+
 def test_contour_check_reads_the_blender_images_at_the_exact_gt_and_off_it(suite_ci):
     """The status's contour measure on Cycles images (the template lit by the lighting fitted to
     each view): at the exact GT every object's worst views (:func:`worst_views_px`) stay under the
     1 px ``uncertain`` threshold; every object moved 4 mm along the camera x axis (about 3-4 px)
     in every view reads above it. Measured: at the GT 0.13-0.56 px (the large clamp 0.56), moved
     1.9-3.0 px."""
-    from ycbvss.pipeline.suite import clip_scene
-    from ycbvss.refine import bundle as B
     from ycbvss.refine import evidence as Ev
     from ycbvss.refine.confidence import OK_PX
-    from ycbvss.refine.templates import ensure_meshes, get_renderer
 
-    models, scene, clip = suite_ci
-    sc = clip_scene(scene, clip)
-    frames, views, imgs, _ = B._scene_views(sc, None)
-    gt = {(f.im_id, i.obj_id): i.T_m2c for f in frames for i in f.instances}
-    obj_ids = sorted({k[1] for k in gt})
-    ensure_meshes(get_renderer(), models)
+    models, views, imgs, gt, obj_ids = _clip_views(suite_ci)
 
     def worst(poses, lit):
         pv, lengths = Ev._contour_offsets_all_views(views, models, obj_ids, np.ones(len(obj_ids), bool), poses, imgs, lit=lit)
@@ -218,19 +223,11 @@ def test_view_shift_reads_the_blender_images_at_the_exact_gt_and_off_it(suite_ci
     the exact GT every view reads 0 px; every object moved 8 mm along the camera x axis (a camera
     off by as much) reads about that many pixels; moved 30 mm, beyond the +-16 px reach, still
     well above the 3 px bound. Measured: 0 px; 9-10 px; ~16 px (4 mm: 4-5 px)."""
-    from ycbvss.pipeline.suite import clip_scene
-    from ycbvss.refine import bundle as B
     from ycbvss.refine import evidence as Ev
     from ycbvss.refine.confidence import VIEW_SHIFT_PX
-    from ycbvss.refine.templates import ensure_meshes, get_renderer
     from ycbvss.refine.view_shift import view_shift_px
 
-    models, scene, clip = suite_ci
-    sc = clip_scene(scene, clip)
-    frames, views, imgs, _ = B._scene_views(sc, None)
-    gt = {(f.im_id, i.obj_id): i.T_m2c for f in frames for i in f.instances}
-    obj_ids = sorted({k[1] for k in gt})
-    ensure_meshes(get_renderer(), models)
+    models, views, imgs, gt, obj_ids = _clip_views(suite_ci)
 
     def per_view(dx_mm):
         poses = {k: T.copy() for k, T in gt.items()}

@@ -104,8 +104,9 @@ def _bowl_free_rotation_deg(R_est: np.ndarray, R_gt: np.ndarray, axis: np.ndarra
     return float(np.degrees(np.arccos(np.clip(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)), -1.0, 1.0))))
 
 
-def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[dict]:
-    """Refine one clip from one initialisation; returns the per-pose rows."""
+def refine_run(run: Run, scene, models: dict, opts_kw: dict | None = None) -> tuple:
+    """Refine one clip of a loaded suite scene from one initialisation, as the suite does; returns
+    (RefineResult, the clip's scene, its GT poses, its initial poses, camera matrices per pose key, wall s)."""
     sc = clip_scene(scene, run.clip)
     gt = {(f.im_id, i.obj_id): i.T_m2c for f in sc.frames for i in f.instances}
     Ks = {k: next(f.camera.K for f in sc.frames if f.im_id == k[0]) for k in gt}
@@ -119,7 +120,13 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = refine_scene(sc, models, init, ro)
-    dt = time.perf_counter() - t0
+    return res, sc, gt, init, Ks, time.perf_counter() - t0
+
+
+def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[dict]:
+    """Refine one clip from one initialisation (:func:`refine_run`); returns the per-pose rows."""
+    res, sc, gt, init, Ks, dt = refine_run(run, scene, models, opts_kw)
+    pts = {o: models[o].vertices_mm for o in {k[1] for k in gt}}
     rows = []
     f = res.stats.get("sigma_scale", (1.0, 1.0, 1.0, 1.0))
     fell_back, restarted = restart_flags(res.stats)
