@@ -14,7 +14,7 @@ def test_ycbv21_has_every_object_in_three_scenes_with_four_to_seven_each():
     assert all(4 <= len(s.obj_ids) <= 7 for s in YCBV21)
 
 
-@pytest.mark.parametrize("suite", ["ycbv21-fresh", "ycbv21-fresh2"])
+@pytest.mark.parametrize("suite", ["ycbv21-fresh", "ycbv21-fresh2", "ycbv21-fresh3"])
 def test_fresh_scenes_are_sealed_new_and_cover_every_object_twice(suite):
     YCBV21_FRESH = SUITES[suite]
     n = Counter(o for s in YCBV21_FRESH for o in s.obj_ids)
