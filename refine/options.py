@@ -502,6 +502,13 @@ class RefineOptions:
     # (mm) how far a model's surface may lie from the real object's: the YCB-V scans lie about 1 mm
     # from the official models (../shared/data/SOURCES.md); not tuned
     table_rest_acc_mm: float = 1.0
+    # with table_rest: an object touching the table whose surface lies more than this (mm) from
+    # every other object's has nothing to lean on, so it can only rest on a face: its tilt is held
+    # without the Geman-McClure let-go (refine.table_rest.TableRestTerm.free_standing). 0: every
+    # object is let go as before. Why: on the sealed ycbv21-fresh2 short-44 the large marker, its
+    # cap's end almost without an edge against the table, ended 9.5 deg lifted and 17 mm too near at
+    # both seeds (session 75, bench/results/ycbv21/README.md)
+    table_rest_lean_mm: float = 0.0
     # with table_rest: also an object standing on another that touches the table (its lowest hull
     # point within 2 mm of that one's surface, refine.table_contact.stacked_gap), held on its nearest
     # stable face with the table's normal -- the top face of a box lying on the table is parallel to it.

@@ -161,6 +161,14 @@ class TableRestTerm:
     scale: float = 3.0
     weight: float = 1.0
     name: str = "table_rest"
+    # object indices held without the let-go (rho(s) = s): objects with nothing else within reach
+    # to lean on (RefineOptions.table_rest_lean_mm), which can only rest on a face
+    free_standing: frozenset = frozenset()
+
+    def _rho(self, j: int, s: float) -> tuple[float, float]:
+        """(rho, d rho / d s) of object j's squared whitened tilt ``s``: Geman-McClure, or the plain
+        square for a free-standing object."""
+        return (s, 1.0) if j in self.free_standing else geman_mcclure(s, self.scale)
 
     def n_obs(self) -> int:
         return len(self.groups)
@@ -185,13 +193,13 @@ class TableRestTerm:
         return out
 
     def cost(self, pb: BundleProblem) -> float:
-        return self.weight * float(sum(geman_mcclure(float(e @ e), self.scale)[0] for _, e, _ in self._residuals(pb)))
+        return self.weight * float(sum(self._rho(j, float(e @ e))[0] for j, e, _ in self._residuals(pb)))
 
     def linearize(self, pb: BundleProblem) -> tuple[float, list]:
         from .terms import Linearization
         out, total = [], 0.0
         for j, e, Jw in self._residuals(pb):
-            rho, drho = geman_mcclure(float(e @ e), self.scale)
+            rho, drho = self._rho(j, float(e @ e))
             total += rho
             J = np.zeros((1, 2, 6))
             J[0, :, 3:] = Jw

@@ -1,7 +1,7 @@
 """refine.table_rest (RefineOptions.table_rest): an object on the table held on its nearest stable
 face -- the faces and their tilt precision, the tilt itself, the gradient against finite
-differences, a solve that lays a tilted box flat, and the robust kernel letting go of an object far
-from any face."""
+differences, a solve that lays a tilted box flat, the robust kernel letting go of an object far
+from any face, and holding one that has nothing to lean on."""
 import numpy as np
 import trimesh
 
@@ -78,6 +78,22 @@ def test_the_kernel_lets_go_of_an_object_far_from_any_face():
     gn = np.linalg.norm(assemble(1, term.linearize(pb_near)[1])[1])
     gf = np.linalg.norm(assemble(1, term.linearize(pb_far)[1])[1])
     assert gf < 0.05 * gn
+
+
+def test_a_free_standing_object_is_not_let_go_and_is_laid_flat_from_far():
+    # nothing to lean on: the plain square, so 25 deg from its face pulls harder than 1 deg does
+    pb_near, term = _problem((1.0, 0.0))
+    pb_far, _ = _problem((25.0, 0.0))
+    free = TableRestTerm(UP, term.groups, free_standing=frozenset({0}))
+    gn = np.linalg.norm(assemble(1, free.linearize(pb_near)[1])[1])
+    gf = np.linalg.norm(assemble(1, free.linearize(pb_far)[1])[1])
+    assert gf > 10.0 * gn
+    c0, lins = free.linearize(pb_far)
+    assert np.isclose(c0, free.cost(pb_far)) and term.cost(pb_far) < 9.0 < 0.1 * c0   # GM saturates at c^2 = 9
+    # and a solve lays it flat
+    pb, _ = _problem((12.0, 0.0))
+    run_lm(pb, [free], SolverOptions(max_iters=50))
+    assert np.degrees(np.linalg.norm(tilt(pb.T_m[0][:3, :3], term.groups[0][1], UP)[1])) < 0.01
 
 
 def test_a_lying_cylinder_keeps_its_turn_about_its_axis():
