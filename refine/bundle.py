@@ -535,36 +535,12 @@ class _Stage:
                 axis = a / np.linalg.norm(a)
             groups.append((j, table_rest.object_rest_faces(m, acc), axis))
         self.stats["table_rest_objects"] = len(groups)
-        free = self._free_standing(held) if self.opt.table_rest_lean_mm > 0.0 else frozenset()
+        free = frozenset()
+        if self.opt.table_rest_lean_mm > 0.0:
+            surfaces, points = self.contact_surfaces
+            free = table_rest.free_standing(self.pb.T_m, surfaces, points, held, self.opt.table_rest_lean_mm)
         self.stats["table_rest_free_standing"] = len(free)
         return table_rest.TableRestTerm(contact.normal_w, groups, free_standing=free)
-
-    def _free_standing(self, held: list[int]) -> frozenset:
-        """The objects of ``held`` none of whose f_contact surface points (world, current poses) lies
-        within ``table_rest_lean_mm`` of another object's surface (any other object of the bundle
-        with a finite pose; bounding spheres first): nothing there to lean on."""
-        pb, reach = self.pb, float(self.opt.table_rest_lean_mm)
-        surfaces, points = self.contact_surfaces
-        others = [k for k in range(len(pb.obj_ids)) if np.all(np.isfinite(pb.T_m[k]))]
-        free = []
-        for j in held:
-            W = points[j] @ pb.T_m[j][:3, :3].T + pb.T_m[j][:3, 3]
-            cj = pb.T_m[j][:3, :3] @ surfaces[j].centre + pb.T_m[j][:3, 3]
-            near = False
-            for k in others:
-                if k == j:
-                    continue
-                ck = pb.T_m[k][:3, :3] @ surfaces[k].centre + pb.T_m[k][:3, 3]
-                if np.linalg.norm(cj - ck) > surfaces[j].radius_mm + surfaces[k].radius_mm + reach:
-                    continue
-                Y = (W - pb.T_m[k][:3, 3]) @ pb.T_m[k][:3, :3]
-                d, _ = surfaces[k].tree.query(Y, k=1)
-                if float(np.min(d)) < reach:
-                    near = True
-                    break
-            if not near:
-                free.append(j)
-        return frozenset(free)
 
     def _stacked_pairs(self, known: list[int], on_table: list[int], n_w: np.ndarray) -> list[tuple]:
         """(j, j's hull vertices, k, k's contact surface) for each object j of ``known`` that does not

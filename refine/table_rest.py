@@ -142,6 +142,33 @@ def tilt(R: np.ndarray, faces: RestFaces, n_w: np.ndarray) -> tuple[int, np.ndar
     return k, _S @ (faces.R_rest[k] @ d)
 
 
+def free_standing(T_m: np.ndarray, surfaces: list, points: list, held: list[int], reach_mm: float) -> frozenset:
+    """The objects of ``held`` (indices into the poses ``T_m`` (J, 4, 4), model to world, mm) none
+    of whose surface points ``points[j]`` (model frame, mm) lies within ``reach_mm`` of another
+    object's surface (``surfaces[k]``: :class:`refine.contact.ContactSurface`, nearest sample; any
+    other object with a finite pose, bounding spheres first): nothing there to lean on."""
+    others = [k for k in range(len(T_m)) if np.all(np.isfinite(T_m[k]))]
+    free = []
+    for j in held:
+        R, t = T_m[j][:3, :3], T_m[j][:3, 3]
+        W = points[j] @ R.T + t
+        cj = R @ surfaces[j].centre + t
+        near = False
+        for k in others:
+            if k == j:
+                continue
+            Rk, tk = T_m[k][:3, :3], T_m[k][:3, 3]
+            if np.linalg.norm(cj - (Rk @ surfaces[k].centre + tk)) > surfaces[j].radius_mm + surfaces[k].radius_mm + reach_mm:
+                continue
+            d, _ = surfaces[k].tree.query((W - tk) @ Rk, k=1)
+            if float(np.min(d)) < reach_mm:
+                near = True
+                break
+        if not near:
+            free.append(j)
+    return frozenset(free)
+
+
 def geman_mcclure(s: np.ndarray | float, c: float) -> tuple:
     """rho(s) = s / (1 + s / c^2) of a squared whitened residual s, and d rho / d s."""
     q = 1.0 + np.asarray(s, np.float64) / c ** 2

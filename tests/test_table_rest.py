@@ -96,6 +96,26 @@ def test_a_free_standing_object_is_not_let_go_and_is_laid_flat_from_far():
     assert np.degrees(np.linalg.norm(tilt(pb.T_m[0][:3, :3], term.groups[0][1], UP)[1])) < 0.01
 
 
+def test_free_standing_means_no_other_surface_within_reach():
+    from ycbvss.refine.contact import contact_surface
+    from ycbvss.refine.table_rest import free_standing
+
+    box = trimesh.creation.box(extents=BOX)                       # 80 x 40 x 20 mm
+    surf = contact_surface(box, n_samples=4000)
+    pts = [surf.points[::8]] * 3
+
+    def at(x: float) -> np.ndarray:
+        T = np.eye(4)
+        T[0, 3] = x
+        return T
+    # box 0 at x = 0; box 1 with a 5 mm gap to it (faces at 40 and 45); box 2 200 mm away
+    T_m = np.stack([at(0.0), at(85.0), at(300.0)])
+    assert free_standing(T_m, [surf] * 3, pts, [0, 1, 2], 10.0) == {2}
+    assert free_standing(T_m, [surf] * 3, pts, [0, 1, 2], 4.0) == {0, 1, 2}
+    T_m[2] = np.nan                                               # a failed pose leans on nothing and holds nothing
+    assert free_standing(T_m, [surf] * 3, pts, [0, 1], 4.0) == {0, 1}
+
+
 def test_a_lying_cylinder_keeps_its_turn_about_its_axis():
     # a cylinder (axis z in the model frame) lying on its side: its hull's faces are discrete, the
     # symmetric object is not; rolled about its axis it feels no pull, tilted along its length it does
