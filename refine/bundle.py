@@ -1476,6 +1476,9 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
         opt = dc_replace(opt, table_rest=group in _groups(opt.table_rest))
     if opt.table_rest and not opt.table_contact:
         opt = dc_replace(opt, table_rest=False)
+    if opt.table_rest and opt.table_rest_lean_mm > 0.0 and group not in _groups(opt.table_rest_lean_groups):
+        opt = dc_replace(opt, table_rest_lean_mm=0.0)
+    stats["table_rest_lean_mm"] = float(opt.table_rest_lean_mm) if opt.table_rest else 0.0
     stats["table_flow"] = bool(opt.table_flow)
     stats["table_contact"] = bool(opt.table_contact)
     stats["table_rest"] = bool(opt.table_rest)
@@ -1705,7 +1708,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     group_specs = {"bias_removal_groups": opt.bias_removal_groups, "supersample_groups": opt.supersample_groups,
                    "interior_ridge_groups": opt.interior_ridge_groups, "point_openness_groups": opt.point_openness_groups,
                    "point_scale_groups": opt.point_scale_groups, "edge_table_groups": opt.edge_table_groups,
-                   "contact_groups": opt.contact_groups}
+                   "contact_groups": opt.contact_groups, "table_rest_lean_groups": opt.table_rest_lean_groups}
     if isinstance(opt.edge_across_only, str):
         group_specs["edge_across_only"] = opt.edge_across_only
     if isinstance(opt.axis_hold, str):

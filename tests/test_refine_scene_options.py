@@ -62,6 +62,15 @@ def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, 
             assert got is opt
 
 
+def test_the_free_standing_hold_resolves_by_the_scenes_baseline_group():
+    got = {name: (o.table_rest_lean_mm, st["table_rest_lean_mm"]) for name, o, st in _resolved(RefineOptions())}
+    assert got == {"wide": (0.0, 0.0), "medium": (0.0, 0.0), "narrow": (10.0, 10.0)}
+    got = {name: o.table_rest_lean_mm for name, o, _ in _resolved(RefineOptions(table_rest_lean_groups="medium,wide"))}
+    assert got == {"wide": 10.0, "medium": 10.0, "narrow": 0.0}
+    # without the resting-face prior there is nothing to hold
+    assert all(st["table_rest_lean_mm"] == 0.0 for _, _, st in _resolved(RefineOptions(table_rest=False)))
+
+
 def test_edge_across_only_resolves_by_the_scenes_baseline_group():
     got = {name: (o.edge_across_only, st["edge_across_only"]) for name, o, st in _resolved(RefineOptions())}
     assert got == {"wide": (True, True), "medium": (True, True), "narrow": (False, False)}
