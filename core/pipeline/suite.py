@@ -115,8 +115,17 @@ YCBV21_FRESH3 = (
     SuiteScene(55, (2, 6, 9, 11, 12, 13, 17), 60, 20.0, 155, held_out=True),
     SuiteScene(56, (4, 5, 7, 14, 15, 16, 19), 60, 20.0, 156, held_out=True),
 )
+# A sealed set of long clips (added in session 76, 2026-12-05): the long-clip figures of record come
+# from scenes 1-3, on which the refiner's options were chosen; these three new 200-frame, 60-degree
+# scenes test them out of sample. Seeds 161-163, the objects split by numpy default_rng(2029), every
+# object in one scene. Refined only to report.
+YCBV21_LONG2 = (
+    SuiteScene(61, (1, 4, 5, 11, 13, 16, 17), 200, 60.0, 161, held_out=True),
+    SuiteScene(62, (7, 8, 9, 10, 14, 20, 21), 200, 60.0, 162, held_out=True),
+    SuiteScene(63, (2, 3, 6, 12, 15, 18, 19), 200, 60.0, 163, held_out=True),
+)
 SUITES = {"ycbv21": YCBV21, "ycbv21-ci": YCBV21_CI, "ycbv21-fresh": YCBV21_FRESH, "ycbv21-fresh2": YCBV21_FRESH2,
-          "ycbv21-fresh3": YCBV21_FRESH3}
+          "ycbv21-fresh3": YCBV21_FRESH3, "ycbv21-long2": YCBV21_LONG2}
 HELD_OUT_SEED_MIN = 5
 SHORT = tuple(range(0, 22, 3))
 MEDIUM = tuple(range(0, 60, 2))
