@@ -15,13 +15,13 @@ A clip whose error is mostly its scale has a small remainder: the fault is then 
 from __future__ import annotations
 
 import argparse
-import json
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
 from ycbvss.eval.tables import Row, Table, write_table
+from ycbvss.io.bop import read_scene_gt
 from ycbvss.pipeline.suite_run import read_rows
 
 
@@ -32,10 +32,8 @@ FIT_MAX_MM = 10.0
 
 def gt_translations_mm(suite_root: Path, scene_id: int) -> dict[tuple[int, int], np.ndarray]:
     """(im_id, obj_id) -> the GT object-to-camera translation (3,) mm of one rendered suite scene."""
-    p = suite_root / "test" / f"{scene_id:06d}" / "scene_gt.json"
-    gt = json.loads(p.read_text())
-    return {(int(im), int(a["obj_id"])): np.asarray(a["cam_t_m2c"], float)
-            for im, anns in gt.items() for a in anns}
+    gt = read_scene_gt(suite_root / "test" / f"{scene_id:06d}" / "scene_gt.json", scene_id)
+    return {(im, inst.obj_id): inst.T_m2c[:3, 3] for im, insts in gt.items() for inst in insts}
 
 
 def fit_scale(t_gt_mm: np.ndarray, d_mm: np.ndarray) -> float:
