@@ -19,6 +19,7 @@ from ..geometry.so3 import is_rotation, log_so3, rotation_angle_deg
 from ..geometry.symmetry import symmetry_transforms
 
 from .axis_hold import AxisHoldTerm
+from .contour_slide import slide_delta
 from .contact import ContactTerm, contact_groups, contact_surface
 from .edge import edge_field, gradient_magnitude
 from .flow_prior import predicted_flow, relative_motion
@@ -301,12 +302,14 @@ class _Stage:
             if light is not None:
                 self._light[i] = light
             nrm: dict | None = {} if eo["dil"] else None
+            cont: dict | None = {} if opt.edge_contour_slide else None
             for j, X in select_edge_samples(vr, pb.views[i].K, cands, opt.n_edge_points, self.rng,
-                                            normals=nrm).items():
+                                            normals=nrm, contour=cont).items():
                 if (i, j) in vis and len(X):
                     N = nrm.get(j) if nrm is not None else None
                     # no sample carries a normal (no contact line here): no nuisance to marginalise
-                    groups.append(EdgeGroup(i, j, X, N if N is not None and N.any() else None))
+                    groups.append(EdgeGroup(i, j, X, N if N is not None and N.any() else None,
+                                            slide=self._contour_slide(j, X, cont.get(j)) if cont is not None else None))
         sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
         term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
                         curv_floor=opt.edge_curv_floor / sig,
@@ -411,6 +414,18 @@ class _Stage:
                 groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
         self._t("temporal_matching_s", time.perf_counter() - t0)
         return TemporalTerm(groups, weight=opt.beta, rho=opt.rho)
+
+    def _contour_slide(self, j: int, X: np.ndarray, contour: np.ndarray | None) -> tuple | None:
+        """``edge_contour_slide``: (model-frame unit axis, :func:`refine.contour_slide.slide_delta`)
+        for object j's edge samples X (mm) when its model has a continuous symmetry axis, else None."""
+        m = self.models[self.pb.obj_ids[j]]
+        if contour is None or not m.symmetries_continuous or not contour.any():
+            return None
+        s = m.symmetries_continuous[0]
+        a = np.asarray(s["axis"], np.float64)
+        a = a / np.linalg.norm(a)
+        o = np.asarray(s.get("offset", (0.0, 0.0, 0.0)), np.float64)
+        return a, slide_delta(m.mesh, X, contour, a, o)
 
     def _axis_hold_term(self) -> AxisHoldTerm | None:
         """``axis_hold``: each free textured object with a continuous symmetry axis (its BOP
@@ -1465,6 +1480,9 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     if isinstance(opt.axis_hold, str):           # likewise
         opt = dc_replace(opt, axis_hold=group in _groups(opt.axis_hold))
     stats["axis_hold"] = bool(opt.axis_hold)
+    if isinstance(opt.edge_contour_slide, str):  # likewise
+        opt = dc_replace(opt, edge_contour_slide=group in _groups(opt.edge_contour_slide))
+    stats["edge_contour_slide"] = bool(opt.edge_contour_slide)
     if isinstance(opt.edge_across_only, str):    # likewise
         opt = dc_replace(opt, edge_across_only=group in _groups(opt.edge_across_only))
     stats["edge_across_only"] = bool(opt.edge_across_only)
@@ -1713,6 +1731,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         group_specs["edge_across_only"] = opt.edge_across_only
     if isinstance(opt.axis_hold, str):
         group_specs["axis_hold"] = opt.axis_hold
+    if isinstance(opt.edge_contour_slide, str):
+        group_specs["edge_contour_slide"] = opt.edge_contour_slide
     if isinstance(opt.table_rest, str):
         group_specs["table_rest"] = opt.table_rest
     elif not isinstance(opt.table_rest, bool):

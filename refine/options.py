@@ -286,6 +286,11 @@ class RefineOptions:
     # seeds 0.667 -> 0.402; the marker 3.14 -> 1.08), the other columns and objects within noise,
     # 14 of 21 objects meeting every short target either way. Medium and long clips not measured with it
     axis_hold: bool | str = "narrow"
+    # f_edge's contour samples of an object with a continuous symmetry axis (BOP
+    # ``symmetries_continuous``) respond to a turn about that axis as its silhouette does (the surface's
+    # normal velocity at their nearest surface point: none on a surface of revolution), not as rigid
+    # points a pixel from the rim (refine.contour_slide). True, False or baseline groups, as axis_hold.
+    edge_contour_slide: bool | str = False
     # the same gate (limit in deg, 0: off) at the finest blur level only (f_edge and the coarse-move
     # check), on the keyframe bundles of the baseline groups in ``interior_turn_groups`` ("wide": wide
     # bundles; "medium": medium and wide); the coarser levels keep every sample, so the mug's and

@@ -316,11 +316,13 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
 
 
 def select_edge_samples(vr: ViewRender, K: np.ndarray, cands: EdgeCandidates, n_max: int,
-                        rng: np.random.Generator, normals: dict | None = None) -> dict[int, np.ndarray]:
+                        rng: np.random.Generator, normals: dict | None = None,
+                        contour: dict | None = None) -> dict[int, np.ndarray]:
     """Up to n_max model points (mm) per rendered object from a view's :class:`EdgeCandidates`:
     interior edges (at most half) and contour (the rest), drawn with ``rng`` object by object.
     ``normals`` (a dict, filled when the candidates carry ``n_c``): object -> (N, 2) outward image
-    normals of its samples, zero rows for the interior ones (same order as the points)."""
+    normals of its samples, zero rows for the interior ones (same order as the points).
+    ``contour`` (a dict, filled): object -> (N,) bool, True for its exterior-contour samples."""
     c = cands
     out = {}
     for lab0, j in enumerate(vr.obj_index):
@@ -337,6 +339,8 @@ def select_edge_samples(vr: ViewRender, K: np.ndarray, cands: EdgeCandidates, n_
         out[j] = backproject_px(K, uv[ok], d[ok]) @ Pinv[:3, :3].T + Pinv[:3, 3]
         if normals is not None and c.n_c is not None:
             normals[j] = np.concatenate([c.n_c[sel_c], np.zeros((len(sel_i), 2))])[ok]
+        if contour is not None:
+            contour[j] = np.concatenate([np.ones(len(sel_c), bool), np.zeros(len(sel_i), bool)])[ok]
     return out
 
 

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry.se3 import inv_T
+from .contour_slide import apply_slide
 from .cubic_kernel import anchored_edge_values, edge_cost_sum
 from .normal_kernel import as_f64
 from .edge import EdgeField, across_edge_directions, sample_E, sample_field
@@ -68,6 +69,9 @@ class EdgeGroup:
     j: int          # object index
     X: np.ndarray   # (N, 3) model points (mm)
     N: np.ndarray | None = None   # (N, 2) outward image normals of the contour samples, zero rows for interior ones
+    # (model-frame unit axis (3,), (N, 3) mm/rad) or None: the turn about that symmetry axis moves the
+    # contour samples by less than rigidly (refine.contour_slide.slide_delta, applied to the Jacobians)
+    slide: tuple | None = None
 
 
 @dataclass
@@ -220,6 +224,9 @@ class EdgeTerm:
             if not ok.all():       # (all valid is the common case: no copies then)
                 grad, H, Jc, Jo = grad[ok], H[ok], Jc[ok], Jo[ok]
                 across = across[ok] if across is not None else None
+            if gr.slide is not None:
+                axis, delta = gr.slide
+                apply_slide(Jc, Jo, delta[ok], pb.T_c[gr.i][:3, :3], pb.T_m[gr.j][:3, :3], axis)
             if across is not None:     # the slope and curvature across the edge only: n^T surrogate n, along n
                 gn = np.einsum("ni,ni->n", grad, across)
                 grad = gn[:, None] * across

@@ -85,6 +85,14 @@ def test_axis_hold_resolves_by_the_scenes_baseline_group():
     assert got == {"wide": True, "medium": True, "narrow": False}
 
 
+def test_contour_slide_resolves_by_the_scenes_baseline_group():
+    got = {name: (o.edge_contour_slide, st["edge_contour_slide"])
+           for name, o, st in _resolved(RefineOptions(edge_contour_slide="medium,wide"))}
+    assert got == {"wide": (True, True), "medium": (True, True), "narrow": (False, False)}
+    got = {name: o.edge_contour_slide for name, o, _ in _resolved(RefineOptions(edge_contour_slide=False))}
+    assert got == {"wide": False, "medium": False, "narrow": False}
+
+
 def test_point_openness_resolves_by_the_scenes_baseline_group():
     got = {name: (o.point_min_openness, st["point_min_openness"]) for name, o, st in _resolved(RefineOptions())}
     assert got == {"wide": (0.0, 0.0), "medium": (0.5, 0.5), "narrow": (0.0, 0.0)}
