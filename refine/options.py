@@ -287,10 +287,19 @@ class RefineOptions:
     # 14 of 21 objects meeting every short target either way. Medium and long clips not measured with it
     axis_hold: bool | str = "narrow"
     # f_edge's contour samples of an object with a continuous symmetry axis (BOP
-    # ``symmetries_continuous``) respond to a turn about that axis as its silhouette does (the surface's
-    # normal velocity at their nearest surface point: none on a surface of revolution), not as rigid
-    # points a pixel from the rim (refine.contour_slide). True, False or baseline groups, as axis_hold.
-    edge_contour_slide: bool | str = False
+    # ``symmetries_continuous``: the cans, the bowl, the large marker) respond to a turn about that axis
+    # as its silhouette does (the surface's normal velocity at their foot on the surface: none on a
+    # surface of revolution, the full motion on the marker's clip), not as rigid points a pixel from
+    # the rim (refine.contour_slide). True, False or baseline groups, as axis_hold. Default "medium,wide"
+    # since session 77 (bench/results/ycbv21/README.md), where the interior turn gate leaves the
+    # marker 1-13 print samples and the rigid contour turned it: fresh2 medium-43 from the exact GT
+    # marker spin -2.84 -> +0.22 deg; paired with today's rows, ycbv21 medium 1-9 seeds 0, 1, 5
+    # 0.084/0.083/0.295/0.190/0.122 -> 0.082/0.083/0.304/0.181/0.120 (16 of 21 both; the marker's R
+    # 0.85 -> 0.62), long-2 seed 5 tz 0.153 -> 0.143; sealed fresh3 medium 51, 54 (seeds 0, 1) tz 0.78
+    # -> 0.69, R 1.46 -> 0.58 (the marker 8.3 -> 2.2 deg). Narrow bundles keep the rigid response:
+    # short-9 (seeds 0, 1, 5) the marker 0.27 -> 1.16 deg with it (no interior gate there; the
+    # texture near the rim then turns it unopposed)
+    edge_contour_slide: bool | str = "medium,wide"
     # the same gate (limit in deg, 0: off) at the finest blur level only (f_edge and the coarse-move
     # check), on the keyframe bundles of the baseline groups in ``interior_turn_groups`` ("wide": wide
     # bundles; "medium": medium and wide); the coarser levels keep every sample, so the mug's and

@@ -52,7 +52,8 @@ def test_bias_removal_applies_to_the_scenes_of_its_baseline_groups_only(groups, 
     # edge_rim_depth, table_flow, table_contact and table_rest bools that stay, template_supersample 1: nothing else to resolve
     opt = RefineOptions(bias_removal_groups=groups, edge_rim_depth=False, template_supersample=1,
                         table_flow=False, table_contact=False, edge_across_only=False, axis_hold=False,
-                        point_min_openness=0.0, edge_contact_mm=0.0, contact_weight=0.0, table_rest=False)
+                        point_min_openness=0.0, edge_contact_mm=0.0, contact_weight=0.0, table_rest=False,
+                        edge_contour_slide=False)
     for name, got, stats in _resolved(opt):
         assert stats["bias_removal"] is (name in removed)
         if name in removed:
@@ -86,8 +87,7 @@ def test_axis_hold_resolves_by_the_scenes_baseline_group():
 
 
 def test_contour_slide_resolves_by_the_scenes_baseline_group():
-    got = {name: (o.edge_contour_slide, st["edge_contour_slide"])
-           for name, o, st in _resolved(RefineOptions(edge_contour_slide="medium,wide"))}
+    got = {name: (o.edge_contour_slide, st["edge_contour_slide"]) for name, o, st in _resolved(RefineOptions())}
     assert got == {"wide": (True, True), "medium": (True, True), "narrow": (False, False)}
     got = {name: o.edge_contour_slide for name, o, _ in _resolved(RefineOptions(edge_contour_slide=False))}
     assert got == {"wide": False, "medium": False, "narrow": False}
