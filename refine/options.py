@@ -295,9 +295,10 @@ class RefineOptions:
     # marker 1-13 print samples and the rigid contour turned it: fresh2 medium-43 from the exact GT
     # marker spin -2.84 -> +0.22 deg; paired with today's rows, ycbv21 medium 1-9 seeds 0, 1, 5
     # 0.084/0.083/0.295/0.190/0.122 -> 0.082/0.083/0.304/0.181/0.120 (16 of 21 both; the marker's R
-    # 0.85 -> 0.62), long-2 seed 5 tz 0.153 -> 0.143; sealed fresh3 medium 51, 54 (seeds 0, 1) tz 0.78
-    # -> 0.69, R 1.46 -> 0.58 (the marker 8.3 -> 2.2 deg). Narrow bundles keep the rigid response:
-    # short-9 (seeds 0, 1, 5) the marker 0.27 -> 1.16 deg with it (no interior gate there; the
+    # 0.51 -> 0.41); long 1-3 seeds 0, 5 paired (five runs) 0.063/0.051/0.219/0.112/0.085 -> 0.063/0.051/
+    # 0.220/0.112/0.085, 19 of 21 both; sealed fresh3 medium 51, 54 (seeds 0, 1) tz 0.72
+    # -> 0.64, R 0.95 -> 0.44 (per-object means; the marker 8.3 -> 2.2 deg). Narrow bundles keep the rigid response:
+    # short-9 (seeds 0, 1, 5) the marker 0.26 -> 0.93 deg with it (no interior gate there; the
     # texture near the rim then turns it unopposed)
     edge_contour_slide: bool | str = "medium,wide"
     # the same gate (limit in deg, 0: off) at the finest blur level only (f_edge and the coarse-move
