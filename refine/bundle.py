@@ -419,12 +419,10 @@ class _Stage:
         """``edge_contour_slide``: (model-frame unit axis, :func:`refine.contour_slide.slide_delta`)
         for object j's edge samples X (mm) when its model has a continuous symmetry axis, else None."""
         m = self.models[self.pb.obj_ids[j]]
-        if contour is None or not m.symmetries_continuous or not contour.any():
+        ax = _continuous_axis(m)
+        if contour is None or ax is None or not contour.any():
             return None
-        s = m.symmetries_continuous[0]
-        a = np.asarray(s["axis"], np.float64)
-        a = a / np.linalg.norm(a)
-        o = np.asarray(s.get("offset", (0.0, 0.0, 0.0)), np.float64)
+        a, o = ax
         return a, slide_delta(m.mesh, X, contour, a, o)
 
     def _axis_hold_term(self) -> AxisHoldTerm | None:
@@ -436,10 +434,10 @@ class _Stage:
         holds = []
         for j, oid in enumerate(pb.obj_ids):
             m = self.models[oid]
-            if m.symmetric or not m.symmetries_continuous or pb.obj_block[j] < 0 or not np.all(np.isfinite(R0s[j])):
+            ax = _continuous_axis(m)
+            if m.symmetric or ax is None or pb.obj_block[j] < 0 or not np.all(np.isfinite(R0s[j])):
                 continue
-            a = np.asarray(m.symmetries_continuous[0]["axis"], np.float64)
-            holds.append((j, a / np.linalg.norm(a), R0s[j][:3, :3].copy()))
+            holds.append((j, ax[0], R0s[j][:3, :3].copy()))
         return AxisHoldTerm(holds) if holds else None
 
     @cached_property
@@ -544,11 +542,8 @@ class _Stage:
         groups = []
         for j in held:
             m = self.models[self.pb.obj_ids[j]]
-            axis = None
-            if m.symmetries_continuous:
-                a = np.asarray(m.symmetries_continuous[0]["axis"], np.float64)
-                axis = a / np.linalg.norm(a)
-            groups.append((j, table_rest.object_rest_faces(m, acc), axis))
+            ax = _continuous_axis(m)
+            groups.append((j, table_rest.object_rest_faces(m, acc), None if ax is None else ax[0]))
         self.stats["table_rest_objects"] = len(groups)
         free = frozenset()
         if self.opt.table_rest_lean_mm > 0.0:
@@ -1573,6 +1568,16 @@ def _bundle_min_sharpness(opt: RefineOptions, group: str) -> float:
     listed groups."""
     spec = opt.interior_sharpness_bundles
     return opt.interior_min_sharpness if spec == "all" or group in _groups(spec) else 0.0
+
+
+def _continuous_axis(m) -> tuple[np.ndarray, np.ndarray] | None:
+    """An object model's first continuous symmetry axis (BOP ``symmetries_continuous``): the unit
+    axis (3,) and its offset (3,) mm, in the model frame; None when it has none."""
+    if not m.symmetries_continuous:
+        return None
+    s = m.symmetries_continuous[0]
+    a = np.asarray(s["axis"], np.float64)
+    return a / np.linalg.norm(a), np.asarray(s.get("offset", (0.0, 0.0, 0.0)), np.float64)
 
 
 def _groups(spec: str) -> tuple[str, ...]:
