@@ -34,6 +34,7 @@ def add_view_args(ap: argparse.ArgumentParser) -> None:
     """The suite frames a GT-view bench reads (shared with ``bench_match_scale.py``)."""
     ap.add_argument("--suite-root", required=True)
     ap.add_argument("--dataset", required=True)
+    ap.add_argument("--suite", default="ycbv21", help="the suite the scenes belong to (ycbv21, ycbv21-fresh2, ...)")
     ap.add_argument("--scenes", default="1,2,4,5,6,7")
     ap.add_argument("--frames", default="0,10,20,30", help="frame positions within each scene's rendered frames")
     ap.add_argument("--supersample", type=int, default=1,
@@ -52,7 +53,7 @@ def gt_views(a: argparse.Namespace):
 
     root = Path(a.suite_root)
     scene_ids = [int(s) for s in a.scenes.split(",")]
-    models, _ = build_suite(a.dataset, root, "ycbv21", scene_ids=scene_ids)
+    models, _ = build_suite(a.dataset, root, getattr(a, "suite", "ycbv21"), scene_ids=scene_ids)
     r = get_renderer()
     ensure_meshes(r, models)
     ss = int(getattr(a, "supersample", 1))
