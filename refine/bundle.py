@@ -42,7 +42,7 @@ from .table_contact import TableContactTerm, lowest_point, mean_normal, normal_s
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, shift_limit_px, sigma_add_mm,
-                         sigma_floor, sigma_scale)
+                         sigma_floor, sigma_scale, unsettled_sigma_t_mm)
 from .uncertainty import pose_sigmas
 from .options import APPEARANCE_MAX_SIGMA_PX, BIAS_REMOVAL, DILATION_MAX_SIGMA_PX, RefineOptions, RefineResult
 
@@ -1806,7 +1806,24 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         raise YcbvssError("RefineOptions.fix_cameras and fix_objects together leave nothing to refine",
                           where=f"scene {scene.scene_id}")
     with single_threaded_kernels():        # the refiner's own threads use the cores (refine.threads)
-        return _refine_scene_checked(scene, models, init, opt, images)
+        return _widen_unsettled_sigmas(_refine_scene_checked(scene, models, init, opt, images))
+
+
+def _widen_unsettled_sigmas(res: RefineResult) -> RefineResult:
+    """The reported sigmas of the final statuses: every per-view pose records ``sigma_add_mm`` (the
+    ADD of a 1-sigma error of its statistical part, what the status reads), and a pose that is not
+    ``converged`` reports translation sigmas of at least that ADD sigma's per-axis share
+    (:func:`ycbvss.refine.confidence.unsettled_sigma_t_mm`). In place; idempotent."""
+    for k, sp in res.sigma.get("poses", {}).items():
+        q = res.quality.get(k[1])
+        if not q or "radius_mm" not in q:
+            continue
+        sa = sigma_add_mm(sp.get("sigma_stat_t_mm", sp["sigma_t_mm"]), sp.get("sigma_stat_r_deg", sp["sigma_r_deg"]),
+                          q["radius_mm"])
+        sp["sigma_add_mm"] = sa
+        if res.status.get(k, "failed") != "converged" and np.isfinite(sa):
+            sp["sigma_t_mm"] = unsettled_sigma_t_mm(sp["sigma_t_mm"], sa)
+    return res
 
 
 def _refine_scene_checked(scene, models: dict, init: dict, opt: RefineOptions, images: dict | None) -> RefineResult:

@@ -311,6 +311,18 @@ def calibrate_sigmas(sigma: dict, group: str) -> dict:
     return sigma
 
 
+def unsettled_sigma_t_mm(sigma_t_mm, sigma_add_mm: float) -> list[float]:
+    """Translation sigmas (mm, camera axes) reported for a pose that is not ``converged``: each axis
+    at least ``sigma_add_mm / sqrt(3)``, the per-axis share of its ADD sigma spread evenly over the
+    three axes. An ``uncertain`` or ``failed`` pose may sit in another rest of the cost than the one
+    its covariance describes, in a direction the covariance does not predict: on the suite's short
+    clips such poses ended 2-6 mm off sideways (a marker slid along its own axis, a foam brick turned
+    12 deg) with a camera-axis sigma of 0.2-0.5 mm and an ADD sigma of 3-5 mm, mostly in depth
+    (session 78). No constant is fitted: a converged pose keeps its covariance sigmas exactly."""
+    st = np.asarray(sigma_t_mm, float)
+    return np.maximum(st, float(sigma_add_mm) / np.sqrt(3.0)).tolist()
+
+
 def sigma_add_mm(sigma_t_mm, sigma_r_deg: float, radius_mm: float) -> float:
     """ADD (mm) of a 1-sigma pose error: the (calibrated) translation sigmas combined with the
     rotation sigma acting at the object's mean radius."""

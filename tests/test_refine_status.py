@@ -135,6 +135,40 @@ def test_status_confidence_and_score(scene3):
     assert max(t_err_mm.values()) < 1.5, t_err_mm
     ests = estimates_of(1, res)
     assert {(e.im_id, e.obj_id): e.score for e in ests} == {k: pytest.approx(v) for k, v in res.confidence.items()}
+    # reported sigmas: a converged pose keeps its covariance-plus-floor sigma; any other pose reports at
+    # least its ADD sigma's per-axis share on every translation axis
+    from ycbvss.refine.confidence import sigma_floor, total_sigma
+    fl = np.array(sigma_floor(res.stats["baseline_group"]))
+    unsettled = 0
+    for k, sp in res.sigma["poses"].items():
+        sa = sp["sigma_add_mm"]
+        assert np.isfinite(sa) and sa > 0.0, (k, sp)
+        if res.status[k] == "converged":
+            np.testing.assert_allclose(sp["sigma_t_mm"], total_sigma(sp["sigma_stat_t_mm"], fl[:3]), rtol=1e-12)
+        else:
+            unsettled += 1
+            assert min(sp["sigma_t_mm"]) >= sa / np.sqrt(3.0) - 1e-12, (k, sp)
+    assert unsettled >= 1, res.status
+
+
+def test_a_pose_that_is_not_converged_reports_its_add_sigma_on_every_translation_axis():
+    """unsettled_sigma_t_mm: each axis at least sigma_add / sqrt(3) (the ADD sigma spread evenly);
+    an axis already wider keeps its sigma. The suite report applies the same rule to its rows."""
+    from ycbvss.pipeline.suite_report import row_sigmas
+    from ycbvss.refine.confidence import sigma_floor, sigma_scale, total_sigma, unsettled_sigma_t_mm
+
+    np.testing.assert_allclose(unsettled_sigma_t_mm([0.2, 0.3, 4.0], 3.0 * np.sqrt(3.0)), [3.0, 3.0, 4.0])
+    np.testing.assert_allclose(unsettled_sigma_t_mm([0.2, 0.3, 4.0], 0.0), [0.2, 0.3, 4.0])
+    row = {"kind": "short", "status": "uncertain", "sigma_tx_mm": 0.1, "sigma_ty_mm": 0.1, "sigma_tz_mm": 2.0,
+           "sigma_r_deg": 0.2, "sigma_add_mm": 2.95}
+    f, fl = np.array(sigma_scale("narrow")), np.array(sigma_floor("narrow"))
+    plain = total_sigma(f * np.array([0.1, 0.1, 2.0, 0.2]), fl)
+    widened = row_sigmas(row)
+    np.testing.assert_allclose(widened[:2], 2.95 / np.sqrt(3.0))     # a 2.8 mm sideways error is now within 2 sigma
+    assert widened[2] == pytest.approx(max(plain[2], 2.95 / np.sqrt(3.0)))
+    assert widened[3] == pytest.approx(plain[3])                      # rotation unchanged
+    np.testing.assert_allclose(row_sigmas({**row, "status": "converged"}), plain)
+    np.testing.assert_allclose(row_sigmas({k: v for k, v in row.items() if k != "sigma_add_mm"}), plain)
 
 
 def test_a_nan_pose_is_failed_and_named_never_silently_replaced(scene3, monkeypatch):

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..eval.tables import ERROR_COLS, ERROR_HEADERS, ERROR_LATEX, Row, Table, write_table
 from ..io.atomic import atomic_path, read_json
-from ..refine.confidence import sigma_floor, sigma_scale, total_sigma
+from ..refine.confidence import sigma_floor, sigma_scale, total_sigma, unsettled_sigma_t_mm
 from ..viz import pyplot
 from .pose_sets import PAPER_TABLE5
 
@@ -108,10 +108,16 @@ def _floor_of(r: dict, calibrated: bool) -> tuple:
 def row_sigmas(r: dict, calibrated: bool = True, factors: tuple | None = None) -> np.ndarray:
     """A row's per-axis sigmas (tx, ty, tz mm, R deg): its raw covariance sigmas times the
     calibration factors (``factors`` instead of the refiner's when given), plus, when calibrated,
-    the systematic floor in quadrature -- what the refiner reports."""
+    the systematic floor in quadrature and, for a pose that is not ``converged``, the widening of
+    :func:`ycbvss.refine.confidence.unsettled_sigma_t_mm` by its ``sigma_add_mm`` (rows written
+    before session 78 lack that column and keep the unwidened sigma) -- what the refiner reports."""
     f = np.asarray(factors if factors is not None else _scale_of(r, calibrated), float)
     raw = np.array([r[s] for _, s in SIGMA_AXES], float)
-    return total_sigma(f * raw, _floor_of(r, calibrated))
+    out = total_sigma(f * raw, _floor_of(r, calibrated))
+    sa = float(r.get("sigma_add_mm", float("nan")))
+    if calibrated and r.get("status") != "converged" and np.isfinite(sa):
+        out[:3] = unsettled_sigma_t_mm(out[:3], sa)
+    return out
 
 
 def coverage(rows: list[dict], k: float = 2.0, calibrated: bool = False, converged_only: bool = False) -> dict:

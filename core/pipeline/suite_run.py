@@ -42,7 +42,7 @@ ROW_FIELDS = ("clip", "kind", "scene_id", "held_out", "init", "seed", "variant",
               "sigma_tx_mm", "sigma_ty_mm", "sigma_tz_mm", "sigma_r_deg", "status", "confidence", "contour_px",
               "time_s", "n_frames", "contour_worst_px", "reason", "rx_obj_deg", "ry_obj_deg", "rz_obj_deg",
               "interior_ncc", "turn_gain_ncc", "ridge_fallback", "slide_restart", "texture_share", "regroup",
-              "sweep_again")
+              "sweep_again", "sigma_add_mm")
 VARIANTS = {"using all": {}, "w/o f_edge": {"use_edge": False}, "w/o f_point": {"use_point": False},
             "w/o f_t": {"use_temporal": False}}
 
@@ -184,6 +184,9 @@ def run_one(run: Run, scene, models: dict, opts_kw: dict | None = None) -> list[
                 "slide_restart": int(oid in restarted),
                 "regroup": regroup,
                 "sweep_again": int(bool(res.stats.get("sweep_again"))),
+                # the ADD sigma of the pose's statistical part (what the status reads; the report widens a
+                # pose that is not converged with it, refine.confidence.unsettled_sigma_t_mm)
+                "sigma_add_mm": float(sp.get("sigma_add_mm", float("nan"))) if sp else float("nan"),
                 **dict(zip(("rx_obj_deg", "ry_obj_deg", "rz_obj_deg"),
                            rotation_error_in_model_deg(res.poses[k][:3, :3], gt[k][:3, :3])))})
     return rows
