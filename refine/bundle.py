@@ -1395,6 +1395,8 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
         sp = sigma["poses"].get((im, oid))
         sig = (sigma_add_mm(sp.get("sigma_stat_t_mm", sp["sigma_t_mm"]), sp.get("sigma_stat_r_deg", sp["sigma_r_deg"]),
                             quality[oid]["radius_mm"]) if sp else None)     # the pose-specific part
+        if sp:
+            sp["sigma_add_mm"] = sig        # recorded: the reported sigma of an unsettled pose is widened by it
         moved = (float(obj_move[0][j]) + float(cam_move[0][i])
                  + np.radians(float(obj_move[1][j]) + float(cam_move[1][i])) * quality[oid]["radius_mm"])
         c = quality[oid]["contour_px"]
@@ -1810,18 +1812,13 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
 
 
 def _widen_unsettled_sigmas(res: RefineResult) -> RefineResult:
-    """The reported sigmas of the final statuses: every per-view pose records ``sigma_add_mm`` (the
-    ADD of a 1-sigma error of its statistical part, what the status reads), and a pose that is not
-    ``converged`` reports translation sigmas of at least that ADD sigma's per-axis share
-    (:func:`ycbvss.refine.confidence.unsettled_sigma_t_mm`). In place; idempotent."""
+    """The reported sigmas of the final statuses: a pose that is not ``converged`` reports
+    translation sigmas of at least the per-axis share of its ``sigma_add_mm`` (the ADD sigma of its
+    statistical part that :func:`_statuses` read and recorded;
+    :func:`ycbvss.refine.confidence.unsettled_sigma_t_mm`). In place; idempotent."""
     for k, sp in res.sigma.get("poses", {}).items():
-        q = res.quality.get(k[1])
-        if not q or "radius_mm" not in q:
-            continue
-        sa = sigma_add_mm(sp.get("sigma_stat_t_mm", sp["sigma_t_mm"]), sp.get("sigma_stat_r_deg", sp["sigma_r_deg"]),
-                          q["radius_mm"])
-        sp["sigma_add_mm"] = sa
-        if res.status.get(k, "failed") != "converged" and np.isfinite(sa):
+        sa = sp.get("sigma_add_mm")
+        if sa is not None and np.isfinite(sa) and res.status.get(k, "failed") != "converged":
             sp["sigma_t_mm"] = unsettled_sigma_t_mm(sp["sigma_t_mm"], sa)
     return res
 
