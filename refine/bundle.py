@@ -40,8 +40,8 @@ from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homogr
 from . import table_rest
 from .table_contact import TableContactTerm, lowest_point, mean_normal, normal_sigma_deg, stacked_gap
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
-from .turn_check import texture_mismatch, turned_wrong
-from .confidence import (BASELINE_GROUPS, FAIL_PX, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, shift_limit_px, sigma_add_mm,
+from .turn_check import turned_wrong
+from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, shift_limit_px, sigma_add_mm,
                          sigma_floor, sigma_scale, unsettled_sigma_t_mm)
 from .uncertainty import pose_sigmas
 from .options import APPEARANCE_MAX_SIGMA_PX, BIAS_REMOVAL, DILATION_MAX_SIGMA_PX, RefineOptions, RefineResult
@@ -1866,31 +1866,15 @@ def ridge_fallback_objects(groups: list) -> set[int]:
     return {int(o) for grp in groups for o in grp}
 
 
-def _slid_objects(res: "RefineResult", width_px: int, with_failed: bool = False) -> list[int]:
+def _slid_objects(res: "RefineResult", width_px: int) -> list[int]:
     """Objects whose projected centre moved further from their initial poses' than
     :func:`ycbvss.refine.confidence.shift_limit_px` allows (the status's "projection moved" rule),
     and those the finest level's ridge fallback put back (``stats["ridge_fallback"]``: they ran away
     from the basin the coarse levels left them in, which is what a slide out of the initial basin
-    usually means too). ``with_failed`` (``RefineOptions.restart_failed``): also the
-    :func:`_failed_objects`, which rest in a basin the images do not support."""
+    usually means too)."""
     fell = ridge_fallback_objects(res.stats.get("ridge_fallback", []))
     return sorted(o for o, q in res.quality.items()
-                  if q.get("shift_px", 0.0) > shift_limit_px(q.get("init_scatter_px", 0.0), width_px) or int(o) in fell
-                  or (with_failed and int(o) in _failed_objects(res, width_px)))
-
-
-def _failed_objects(res: "RefineResult", width_px: int) -> set[int]:
-    """Objects that two independent cues put in a wrong basin: their contour
-    (``quality[obj_id]["contour_px"]``, the median over their views) more than ``FAIL_PX`` (at 640 px,
-    scaled with ``width_px``) off the image edges, and a textured object's interior texture not
-    matching (:func:`ycbvss.refine.turn_check.texture_mismatch`). The contour alone is not enough: a
-    mostly hidden object's few contour samples can fit better in a worse pose (suite medium-5, the
-    large marker in the bowl, `failed` at 2.5-2.7 px with ADD 3-7 mm, untextured: restarted on the
-    contour alone it ended 16-23 mm off with a 0.8-1.2 px contour, and that pass was kept)."""
-    lim = FAIL_PX * width_px / REF_WIDTH_PX
-    return {int(o) for o, q in res.quality.items()
-            if np.isfinite(q.get("contour_px", np.nan)) and q["contour_px"] > lim
-            and texture_mismatch(q.get("interior_ncc", np.nan), q.get("texture_share", np.nan))}
+                  if q.get("shift_px", 0.0) > shift_limit_px(q.get("init_scatter_px", 0.0), width_px) or int(o) in fell)
 
 
 def _refine_scene_pass(scene, models: dict, init: dict, opt: RefineOptions, images: dict | None
@@ -1906,8 +1890,7 @@ def _refine_scene_pass(scene, models: dict, init: dict, opt: RefineOptions, imag
     with warnings.catch_warnings(record=True) as w1:
         warnings.simplefilter("always")
         res, turns = _refine_scene_once(scene, models, init, opt, images)
-    failed = opt.restart_failed
-    slid = _slid_objects(res, width, failed)
+    slid = _slid_objects(res, width)
     levels = tuple(res.stats.get("edge_sigmas_px", ()))
     narrow_skipped = opt.slide_restart == "coarse" and res.stats.get("baseline_group") == "narrow"   # it started at 4 px
     if not slid or len(levels) < 3 or narrow_skipped:
@@ -1920,7 +1903,7 @@ def _refine_scene_pass(scene, models: dict, init: dict, opt: RefineOptions, imag
         with warnings.catch_warnings(record=True) as w2:
             warnings.simplefilter("always")
             res2, turns2 = _refine_scene_once(scene, models, init, dc_replace(opt, edge_sigmas_px=levels[start:]), images)
-        slid2 = _slid_objects(res2, width, failed)
+        slid2 = _slid_objects(res2, width)
         keep = len(slid2) < len(best_slid) and set(slid2) <= set(best_slid)
         attempts.append({"levels_px": list(levels[start:]), "after": slid2, "kept": keep,
                          "total_s": res2.stats["total_s"], "log": res2.log})
@@ -1934,7 +1917,6 @@ def _refine_scene_pass(scene, models: dict, init: dict, opt: RefineOptions, imag
     msg = (f"objects {_id_list(slid)} slid out of their initial basin: refined again " + "; ".join(parts)
            + ("" if kept else ", first result stands"))
     note = {"objects": slid, "ridge_fallback": res.stats.get("ridge_fallback", []),   # the first pass's put-back objects
-            "failed": sorted(_failed_objects(res, width)) if failed else [],     # ... and its failed ones
             "levels_px": kept["levels_px"] if kept else list(levels[1:]),
             "after": kept["after"] if kept else attempts[0]["after"], "kept": kept is not None,
             "attempts": [{k: a[k] for k in ("levels_px", "after", "kept")} for a in attempts]}

@@ -76,16 +76,6 @@ class RefineOptions:
     # held-out medium-3 seed 7 (session 57) the extra-large clamp, 4 mm off, had pulled the six others
     # 1.2-1.9 mm along with it, all reported converged
     isolate_slid: bool = True
-    # a textured object whose contour ends more than FAIL_PX off the image edges (the status's `failed`
-    # rule) while the texture inside its silhouette does not match either (refine.bundle._failed_objects)
-    # counts as slid for ``slide_restart`` and ``isolate_slid``: it rests in a basin the images do not
-    # support. Since session 79: long-1 from init ADD 60 mm (development, seed 0) the banana, carried
-    # 41 mm too near by the 8 px level, ended 15.6 mm off and `failed` (contour 3.0 px, NCC 0.07) in all
-    # 200 frames without a slide the rule saw (the session-77 contour slide changed the can's steps,
-    # and through the shared cameras the banana's path, so the finest level's ridge fallback no longer
-    # fired). The contour alone is not enough: medium-5's untextured marker, `failed` at 2.5-2.7 px
-    # (ADD 3-7 mm), restarted on it ended 16-23 mm off. Runs without such an object are unchanged
-    restart_failed: bool = True
     nonkey_choose_init: bool = True   # a non-keyframe starts from its own init camera or the keyframes' interpolation, whichever fits the image's edges
     n_edge_points: int = 1000
     edge_curv_floor: float = 1.0

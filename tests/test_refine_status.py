@@ -443,10 +443,10 @@ def test_slide_restart_goes_on_from_finer_levels(monkeypatch):
             calls.append(lv)
             return SimpleNamespace(stats={"edge_sigmas_px": list(lv), "total_s": 1.0, "baseline_group": "medium",
                                           "slid": outcomes[lv], "ridge_fallback": [outcomes[lv]] if len(lv) == 4 else []},
-                                   log=[{"stage": f"pass {lv}"}], quality={}), {}
+                                   log=[{"stage": f"pass {lv}"}]), {}
 
         monkeypatch.setattr(B, "_refine_scene_once", once)
-        monkeypatch.setattr(B, "_slid_objects", lambda res, width, failed=False: res.stats["slid"])
+        monkeypatch.setattr(B, "_slid_objects", lambda res, width: res.stats["slid"])
         res, _ = B._refine_scene_pass(SimpleNamespace(frames=[]), {}, {}, B.RefineOptions(), None)
         return res, calls
 
@@ -464,34 +464,6 @@ def test_slide_restart_goes_on_from_finer_levels(monkeypatch):
 
     res, calls = run({(8.0, 4.0, 2.0, 1.0): [], (4.0, 2.0, 1.0): [], (2.0, 1.0): []})
     assert calls == [(8.0, 4.0, 2.0, 1.0)] and "slide_restart" not in res.stats
-
-
-def test_a_failed_object_counts_as_slid_for_the_restarts():
-    """_slid_objects with ``restart_failed``: a textured object whose contour ends more than FAIL_PX
-    (scaled with the width) off the image edges and whose interior texture does not match is out of
-    its basin like one that slid; without the flag, at FAIL_PX exactly, with a matching texture, an
-    untextured object or one without a contour it is not."""
-    from types import SimpleNamespace
-
-    import ycbvss.refine.bundle as B
-    from ycbvss.refine.confidence import FAIL_PX
-    from ycbvss.refine.turn_check import NCC_TEXTURED_MIN, TEXTURED_MIN
-
-    bad = {"interior_ncc": NCC_TEXTURED_MIN - 0.1, "texture_share": TEXTURED_MIN + 0.1}
-    q = {5: {"contour_px": 0.3, "shift_px": 1.0, "init_scatter_px": 1.0, **bad},       # fits
-         10: {"contour_px": FAIL_PX + 0.5, "shift_px": 2.0, "init_scatter_px": 1.0, **bad},   # failed, not slid
-         14: {"contour_px": 0.4, "shift_px": 500.0, "init_scatter_px": 1.0},             # slid
-         17: {"contour_px": FAIL_PX, "shift_px": 0.0, **bad},                             # at the limit
-         18: {"contour_px": FAIL_PX + 0.5, "shift_px": 0.0},                              # untextured
-         19: {"contour_px": float("nan"), "shift_px": 0.0, **bad},                        # no contour
-         20: {"contour_px": FAIL_PX + 0.5, "shift_px": 0.0, "interior_ncc": NCC_TEXTURED_MIN + 0.1,
-              "texture_share": TEXTURED_MIN + 0.1}}                                      # texture matches
-    res = SimpleNamespace(quality=q, stats={})
-    assert B._slid_objects(res, 640) == [14]
-    assert B._slid_objects(res, 640, True) == [10, 14]
-    assert B._failed_objects(res, 640) == {10}
-    assert B._failed_objects(res, 1280) == set()           # 3.0 px at 1280 wide is within 2 x FAIL_PX
-    assert B.RefineOptions().restart_failed is True
 
 
 def test_objects_still_sliding_after_the_restarts_are_left_out_of_a_last_pass(monkeypatch):
@@ -532,7 +504,7 @@ def test_objects_still_sliding_after_the_restarts_are_left_out_of_a_last_pass(mo
             return res, {o: f"turn {o} {'full' if full else 'without'}" for o in objs}
 
         monkeypatch.setattr(B, "_refine_scene_once", once)
-        monkeypatch.setattr(B, "_slid_objects", lambda res, width, failed=False: res.stats["slid"])
+        monkeypatch.setattr(B, "_slid_objects", lambda res, width: res.stats["slid"])
         init = {(0, o): shifted(10.0) for o in (3, 6, 20)}
         return B._refine_scene_pass(SimpleNamespace(frames=[]), {}, init, opt or B.RefineOptions(), None), calls
 
