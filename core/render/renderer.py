@@ -25,7 +25,7 @@ import numpy as np
 
 from ..camera import check_K
 from ..errors import YcbvssError
-from .context import get_context
+from .context import get_context, gil_free_gl
 from .projection import FRONT_FACE, projection_from_K
 from .shaders import sources
 from .texture import (
@@ -449,6 +449,7 @@ class Renderer:
         culling, front = None, None
 
         prog = self._program(with_color, with_normal)
+        gl = gil_free_gl()
         prog["u_proj"].write(P.T.astype("f4").tobytes())
         if with_color:
             prog["u_tex"].value = 0
@@ -476,22 +477,34 @@ class Renderer:
             if cull != culling:
                 (ctx.enable if cull else ctx.disable)(moderngl.CULL_FACE)
                 culling = cull
-            self._vao(g, with_color, with_normal).render(moderngl.TRIANGLES)
+            vao = self._vao(g, with_color, with_normal)
+            if gl.ok and vao.index_buffer is not None:     # the same GL calls, the GIL released
+                gl.draw_indexed(prog.glo, vao.glo, vao.vertices, vao.index_element_size)
+            else:
+                vao.render(moderngl.TRIANGLES)
         return _read_outputs(fb, height, width, read)
 
 
 def _read_outputs(fb: dict, H: int, W: int, read) -> dict:
     """Read the framebuffer ``fb``'s attachments named in ``read`` into numpy images (H, W[, C])."""
     fbo = fb["fbo"]
+    gl = gil_free_gl()
+
+    def read_into(out: np.ndarray, components: int, attachment: int, dtype: str) -> None:
+        if gl.ok:         # the same read, the GIL released while llvmpipe finishes and converts
+            gl.read_into(fbo.glo, out, attachment, components, dtype)
+        else:
+            fbo.read_into(out, components=components, attachment=attachment, dtype=dtype, alignment=1)
+
     res = {}
     gi = fb["index"]["geom"]
     if read & {"depth", "instance"} == {"depth"}:
         depth = np.empty((H, W), dtype=np.float32)
-        fbo.read_into(depth, components=1, attachment=gi, dtype="f4", alignment=1)
+        read_into(depth, 1, gi, "f4")
         res["depth"] = depth
     elif read & {"depth", "instance"}:
         geom = fb.setdefault("geom_buf", np.empty((H, W, 2), dtype=np.float32))  # reused staging buffer
-        fbo.read_into(geom, components=2, attachment=gi, dtype="f4", alignment=1)
+        read_into(geom, 2, gi, "f4")
         if "depth" in read:
             res["depth"] = np.ascontiguousarray(geom[..., 0])
         inst = np.empty((H, W), dtype=np.int32)
@@ -499,11 +512,11 @@ def _read_outputs(fb: dict, H: int, W: int, read) -> dict:
         res["instance"] = inst
     if "color" in read:
         col = np.empty((H, W, 3), dtype=np.uint8)
-        fbo.read_into(col, components=3, attachment=fb["index"]["color"], dtype="f1", alignment=1)
+        read_into(col, 3, fb["index"]["color"], "f1")
         res["color"] = col
     if "normal" in read:
         nrm = np.empty((H, W, 3), dtype=np.float32)  # unit length from the shader, 0 on background
-        fbo.read_into(nrm, components=3, attachment=fb["index"]["normal"], dtype="f4", alignment=1)
+        read_into(nrm, 3, fb["index"]["normal"], "f4")
         res["normal"] = nrm
     return res
 
