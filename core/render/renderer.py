@@ -478,8 +478,9 @@ class Renderer:
                 (ctx.enable if cull else ctx.disable)(moderngl.CULL_FACE)
                 culling = cull
             vao = self._vao(g, with_color, with_normal)
-            if gl.ok and vao.index_buffer is not None:     # the same GL calls, the GIL released
-                gl.draw_indexed(prog.glo, vao.glo, vao.vertices, vao.index_element_size)
+            isize = getattr(vao, "index_element_size", None) if getattr(vao, "index_buffer", None) is not None else None
+            if gl.ok and isize in gl.INDEX_TYPE:     # the same GL calls, the GIL released
+                gl.draw_indexed(prog.glo, vao.glo, vao.vertices, isize)
             else:
                 vao.render(moderngl.TRIANGLES)
         return _read_outputs(fb, height, width, read)
