@@ -377,7 +377,7 @@ def test_gil_free_draw_and_read_back_give_moderngl_pixels(r, ycb_mesh, monkeypat
     from ycbvss.render import context
 
     if not context.gil_free_gl().ok:
-        pytest.skip("libOpenGL.so.0 not loadable: the renderer uses moderngl's calls only")
+        pytest.skip("no GLVND libOpenGL.so.0 reaching the moderngl context: the renderer uses moderngl's calls only")
     r.add_mesh("mustard", ycb_mesh)
     items = [("mustard", pose((0.4, -0.3, 0.2), (20.0, -10.0, 700.0))), ("box", pose((0.1, 0.2, 0.0), (40.0, 0.0, 650.0)))]
     outs = ("depth", "instance", "color", "normal")

@@ -65,9 +65,8 @@ class _GilFreeGL:
 
     moderngl's ``VertexArray.render`` (llvmpipe transforms and bins the triangles in the calling
     thread) and ``Framebuffer.read_into`` (``glReadPixels`` waits for the rasteriser, then converts
-    the pixels)
-    hold the GIL while they work, so the refiner's view-pool threads cannot run Python for as
-    long as a frame takes. These functions issue the same GL calls as those two methods
+    the pixels) hold the GIL while they work, so the refiner's view-pool threads cannot run Python
+    for as long as a frame takes. These functions issue the same GL calls as those two methods
     (``glUseProgram``, ``glBindVertexArray``, ``glDrawElementsInstanced``; ``glBindFramebuffer``,
     ``glReadBuffer``, ``glPixelStorei``, ``glClampColor``, ``glReadPixels``), so the pixels are the
     same. Loaded from GLVND's ``libOpenGL.so.0`` (the EGL context's dispatch) and used only when its
