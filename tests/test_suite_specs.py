@@ -28,12 +28,13 @@ def test_fresh_scenes_are_sealed_new_and_cover_every_object_twice(suite):
     assert all({c.kind for c in clips_of(s)} == {"short", "medium"} for s in YCBV21_FRESH)
 
 
-def test_sealed_long_scenes_are_new_and_cover_every_object_once():
-    specs = SUITES["ycbv21-long2"]
+@pytest.mark.parametrize("suite", ["ycbv21-long2", "ycbv21-long3"])
+def test_sealed_long_scenes_are_new_and_cover_every_object_once(suite):
+    specs = SUITES[suite]
     n = Counter(o for s in specs for o in s.obj_ids)
     assert sorted(n) == list(range(1, 22)) and set(n.values()) == {1}, n
     assert all(s.held_out and s.is_long and s.arc_deg >= 45.0 for s in specs)
-    others = [s for name, sp in SUITES.items() if name != "ycbv21-long2" for s in sp]
+    others = [s for name, sp in SUITES.items() if name != suite for s in sp]
     assert not {s.scene_id for s in specs} & {s.scene_id for s in others}
     assert not {s.seed for s in specs} & {s.seed for s in others}
     assert all({c.kind for c in clips_of(s)} == {"short", "medium", "long"} for s in specs)

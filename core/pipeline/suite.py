@@ -124,8 +124,16 @@ YCBV21_LONG2 = (
     SuiteScene(62, (7, 8, 9, 10, 14, 20, 21), 200, 60.0, 162, held_out=True),
     SuiteScene(63, (2, 3, 6, 12, 15, 18, 19), 200, 60.0, 163, held_out=True),
 )
+# A second sealed set of long clips (added in session 83, 2026-12-06, when ycbv21-long2's scene scale
+# was used to choose the wide bundles' rescale to f_point's scale): seeds 164-166, the objects split
+# by numpy default_rng(2030), every object in one scene. Refined only to report.
+YCBV21_LONG3 = (
+    SuiteScene(64, (2, 3, 5, 6, 10, 15, 16), 200, 60.0, 164, held_out=True),
+    SuiteScene(65, (1, 4, 7, 8, 9, 11, 19), 200, 60.0, 165, held_out=True),
+    SuiteScene(66, (12, 13, 14, 17, 18, 20, 21), 200, 60.0, 166, held_out=True),
+)
 SUITES = {"ycbv21": YCBV21, "ycbv21-ci": YCBV21_CI, "ycbv21-fresh": YCBV21_FRESH, "ycbv21-fresh2": YCBV21_FRESH2,
-          "ycbv21-fresh3": YCBV21_FRESH3, "ycbv21-long2": YCBV21_LONG2}
+          "ycbv21-fresh3": YCBV21_FRESH3, "ycbv21-long2": YCBV21_LONG2, "ycbv21-long3": YCBV21_LONG3}
 HELD_OUT_SEED_MIN = 5
 SHORT = tuple(range(0, 22, 3))
 MEDIUM = tuple(range(0, 60, 2))
