@@ -954,7 +954,8 @@ def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, in
 def _view_matches(raw: np.ndarray, img: np.ndarray, masks: list[np.ndarray], flow: FlowOptions,
                   dst_me: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Flow matches template -> image of one view (crop coordinates), see :func:`flow_matches`."""
-    return flow_matches(normalize_for_flow(raw), normalize_for_flow(img), masks, flow, corner_image=raw,
+    return flow_matches(normalize_for_flow(raw, flow.template_norm_sigma_px),
+                        normalize_for_flow(img, flow.template_norm_sigma_px), masks, flow, corner_image=raw,
                         dst_me=dst_me)
 
 

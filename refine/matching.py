@@ -29,6 +29,11 @@ class FlowOptions:
     min_distance_px: int = 3
     min_eig: float = 5e-4         # absolute Shi-Tomasi threshold (cv2.cornerMinEigenVal, block 3) on the image blurred
                                   # with sigma 1 px: image noise on textureless surfaces stays below it
+    # f_point's template and image are contrast-normalised (normalize_for_flow) over this blur (px) before
+    # the flow. Session 83 (bench/results/ycbv21/README.md): at the exact GT the lit template's matches of
+    # a small textured object read its apparent size off by a per-(scene, object) scale of rms 0.17 %
+    # (ycbv21 1-9) and 0.19 % (ycbv21-long2; the gelatin box of long-62 +0.48 %) at 6 px, 0.13 % at 3 px
+    template_norm_sigma_px: float = 6.0
 
 
 def _gray_u8(img: np.ndarray) -> np.ndarray:
