@@ -69,18 +69,23 @@ def gt_views(a: argparse.Namespace):
             yield models, sid, fr, fr.load_rgb(), vr, oids
 
 
-def gt_view_matches(vr, img: np.ndarray, lit: bool | np.ndarray = False) -> tuple[list[int], list]:
+def gt_view_matches(vr, img: np.ndarray, lit: bool | np.ndarray = False,
+                    norm_sigma_px: float | None = None) -> tuple[list[int], list]:
     """f_point's template-to-image flow matches of one GT view as the refiner makes them (default
     RefineOptions; crop coordinates): (object indices with at least ``min_visible_px`` visible,
     their (src, dst) matches). ``lit``: True, the template lit by the fitted lighting
     (``RefineOptions.template_shading``); an (H, W, 3) array, that colour as the template (of a
     point-sampled render). Shared by ``bench_match_scale.py``, ``bench_template_shading.py`` and
-    ``bench_height_lighting.py``."""
+    ``bench_height_lighting.py``. ``norm_sigma_px``: FlowOptions.template_norm_sigma_px (None: its default)."""
+    from dataclasses import replace
+
     from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches_lit
     from ycbvss.refine.matching import min_eig_map
     from ycbvss.refine.templates import object_mask
 
     opt = RefineOptions()
+    if norm_sigma_px is not None:
+        opt.flow = replace(opt.flow, template_norm_sigma_px=float(norm_sigma_px))
     objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
     box = y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
     masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]

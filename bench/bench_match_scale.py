@@ -11,6 +11,10 @@ offset from ``bench_contour_offsets.py`` it says which term carries which part o
 
     python bench/bench_match_scale.py --suite-root /tmp/suite/full --dataset ../shared/data/ycbv \
         --scenes 1,2,4,5,6,7 --frames 0,10,20,30 --out bench/results/ycbv21/match_scale
+
+``--norm-sigmas 6,3,2``: instead, the scale per (scene, object) (mean over its views) with f_point's
+contrast normalisation over each of these blurs (``FlowOptions.template_norm_sigma_px``), and its
+mean and rms over the (scene, object)s; table ``match_scale_norm``.
 """
 from __future__ import annotations
 
@@ -30,8 +34,12 @@ def main() -> None:
     ap.add_argument("--min-matches", type=int, default=30)
     ap.add_argument("--lit", action="store_true",
                     help="the template lit by the lighting fitted to the image (RefineOptions.template_shading)")
+    ap.add_argument("--norm-sigmas", default=None,
+                    help="comma-separated blurs (px) of f_point's contrast normalisation to compare (FlowOptions.template_norm_sigma_px)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
+    if a.norm_sigmas:
+        return norm_table(a)
     rows = []
     models: dict = {}
     for models, _, fr, img, vr, oids in gt_views(a):
@@ -65,6 +73,39 @@ def main() -> None:
                               float(dz.mean()), float(np.sqrt(np.mean(dz ** 2))),
                               float(np.mean([x["shift_px"] for x in rows]))], rule_before=True))
     for p in write_table(t, Path(a.out), "match_scale"):
+        print(p)
+
+
+def norm_table(a: argparse.Namespace) -> None:
+    """Table ``match_scale_norm``: per (scene, object), the mean over its views of the matches' scale
+    at the exact GT for each contrast-normalisation blur of ``--norm-sigmas``; mean and rms over them."""
+    from bench_contour_offsets import gt_view_matches, gt_views
+
+    from ycbvss.eval.tables import Row, Table, write_table
+
+    sigmas = [float(x) for x in a.norm_sigmas.split(",")]
+    per: dict = {}
+    names: dict = {}
+    for models, sid, fr, img, vr, oids in gt_views(a):
+        for sg in sigmas:
+            objs, matches = gt_view_matches(vr, img, lit=a.lit, norm_sigma_px=sg)
+            for j, (xs, xd) in zip(objs, matches):
+                if len(xs) < a.min_matches:
+                    continue
+                rel = xs - xs.mean(axis=0)
+                per.setdefault((sid, oids[j]), {}).setdefault(sg, []).append(float(np.sum((xd - xs) * rel) / np.sum(rel * rel)))
+                names[oids[j]] = getattr(models[oids[j]], "name", None) or str(oids[j])
+    keys = sorted(k for k, v in per.items() if all(sg in v for sg in sigmas))
+    t = Table([f"scale (%), {sg:g} px" for sg in sigmas], label_header="scene / object", digits=3,
+              caption=f"f_point's matches at the exact GT ({'lit' if a.lit else 'unlit'} template): scale of their displacement about their "
+                      f"centroid per (scene, object), mean over its views, by the blur of the contrast normalisation "
+                      f"(FlowOptions.template_norm_sigma_px); scenes {a.scenes}, frame positions {a.frames}")
+    M = np.array([[100 * float(np.mean(per[k][sg])) for sg in sigmas] for k in keys])
+    for k, m in zip(keys, M):
+        t.rows.append(Row(f"{k[0]} / {names[k[1]]}", [float(x) for x in m]))
+    t.rows.append(Row("mean", [float(x) for x in M.mean(axis=0)], rule_before=True))
+    t.rows.append(Row("rms", [float(x) for x in np.sqrt(np.mean(M ** 2, axis=0))]))
+    for p in write_table(t, Path(a.out), "match_scale_norm"):
         print(p)
 
 

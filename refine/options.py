@@ -260,7 +260,10 @@ class RefineOptions:
     # tx/ty/tz/R/PRJ 0.083/0.106/0.342/0.226/0.137 -> 0.079/0.103/0.287/0.226/0.137, held out (scenes
     # 3, 8, 9; seed 5) tz 0.350 -> 0.293 mm, objects meeting every target 14 -> 15 of 21 (the wood
     # block 0.92 -> 0.74 mm), statuses identical; the sealed ycbv21-fresh medium 31-36, seeds 0 and 1,
-    # run once after the choice: tz 0.375 -> 0.352 mm, 15 of 21 both. Rotations are untouched
+    # run once after the choice: tz 0.375 -> 0.352 mm, 15 of 21 both. Rotations are untouched. Not on wide
+    # bundles (session 83, paper init, seed 0, paired): ycbv21 long 1-3 tz 0.225 -> 0.215 mm, but
+    # ycbv21-long2 61-63 0.747 -> 0.797 (long-61 0.49 -> 0.13, long-62 1.12 -> 1.68: at the exact GT the
+    # texture matches of long-62's small boxes read their size 0.2-0.5 % large, the contours that scene right)
     point_scale_groups: str = "medium"
     supersample_groups: str = "medium,wide"
     edge_dilation_k: float = 0.0      # > 0: a shared outward offset of each (view, object)'s contour samples is marginalised out of f_edge, its prior worth this many samples (refine.terms.EdgeTerm)
