@@ -32,7 +32,7 @@ class FlowOptions:
     # f_point's template and image are contrast-normalised (normalize_for_flow) over this blur (px) before
     # the flow. Session 83 (bench/results/ycbv21/README.md): at the exact GT the lit template's matches of
     # a small textured object read its apparent size off by a per-(scene, object) scale of rms 0.17 %
-    # (ycbv21 1-9) and 0.19 % (ycbv21-long2; the gelatin box of long-62 +0.48 %) at 6 px, 0.13 % at 3 px
+    # (ycbv21 1-9) and 0.18 % (ycbv21-long2; the gelatin box of long-62 +0.48 %) at 6 px, 0.13 % at 3 px
     template_norm_sigma_px: float = 6.0
 
 
