@@ -24,6 +24,12 @@ from pathlib import Path
 import numpy as np
 
 
+def match_scale(xs: np.ndarray, xd: np.ndarray) -> float:
+    """Least-squares scale (relative) of the displacements xd - xs (N, 2 px) about the centroid of xs."""
+    rel = xs - xs.mean(axis=0)
+    return float(np.sum((xd - xs) * rel) / np.sum(rel * rel))
+
+
 def main() -> None:
     from bench_contour_offsets import add_view_args, gt_view_matches, gt_views   # this folder (run as a script)
 
@@ -47,9 +53,7 @@ def main() -> None:
         for j, (xs, xd) in zip(objs, matches):
             if len(xs) < a.min_matches:
                 continue
-            c = xs.mean(axis=0)
-            rel = xs - c
-            s = float(np.sum((xd - xs) * rel) / np.sum(rel * rel))
+            s = match_scale(xs, xd)
             z = float(fr.instances[j].T_m2c[2, 3])
             rows.append({"obj_id": oids[j], "n": len(xs), "scale": s, "dz_mm": -s * z,
                          "shift_px": float(np.linalg.norm((xd - xs).mean(axis=0)))})
@@ -92,8 +96,7 @@ def norm_table(a: argparse.Namespace) -> None:
             for j, (xs, xd) in zip(objs, matches):
                 if len(xs) < a.min_matches:
                     continue
-                rel = xs - xs.mean(axis=0)
-                per.setdefault((sid, oids[j]), {}).setdefault(sg, []).append(float(np.sum((xd - xs) * rel) / np.sum(rel * rel)))
+                per.setdefault((sid, oids[j]), {}).setdefault(sg, []).append(match_scale(xs, xd))
                 names[oids[j]] = getattr(models[oids[j]], "name", None) or str(oids[j])
     keys = sorted(k for k, v in per.items() if all(sg in v for sg in sigmas))
     t = Table([f"scale (%), {sg:g} px" for sg in sigmas], label_header="scene / object", digits=3,

@@ -70,30 +70,42 @@ def test_lit_template_keeps_background_and_falls_back():
     assert np.array_equal(lit_template(albedo, n, tiny, img), albedo)
 
 
+def _textured_lit_sphere(seed: int):
+    """A sphere (radius 90 px in 200 x 200) with a random texture, its image lit by a clamped-cosine
+    light on a grey background: (normals, inside, albedo image, lit image, match mask eroded 6 px)."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    n, inside = _sphere(200, 200, 90.0)
+    tex = cv2.GaussianBlur(rng.uniform(0, 255, (200, 200, 3)).astype(np.float32), (0, 0), 2.0)
+    tex = np.clip((tex - 127) * 6 + 127, 30, 230).astype(np.uint8)
+    light = np.array([0.6, -0.5, -0.62])
+    img = np.where(inside[..., None], _lit(tex, n, inside, 0.9 * light / np.linalg.norm(light), 0.15), np.uint8(90))
+    alb = np.where(inside[..., None], tex, np.uint8(90))
+    m = cv2.erode(inside.astype(np.uint8), np.ones((13, 13), np.uint8)).astype(bool)
+    return n, inside, alb, img, m
+
+
+def _match_rms_px(template: np.ndarray, img: np.ndarray, mask: np.ndarray, norm_sigma_px: float) -> float:
+    """RMS displacement (px) of the refiner's flow matches from ``template`` to ``img`` in ``mask``,
+    both contrast-normalised over ``norm_sigma_px`` (asserts more than 300 matches)."""
+    from ycbvss.refine.matching import FlowOptions, flow_matches, min_eig_map, normalize_for_flow
+
+    (a, b), = flow_matches(normalize_for_flow(template, norm_sigma_px), normalize_for_flow(img, norm_sigma_px), [mask],
+                           FlowOptions(), corner_image=template, dst_me=min_eig_map(img))
+    assert len(a) > 300
+    return float(np.sqrt(np.mean(np.sum((b - a) ** 2, axis=1))))
+
+
 def test_lit_template_removes_flow_bias():
     """Flow matches (the refiner's f_point matching) from a textured sphere's unlit template to
     its image lit by a clamped-cosine light land off by the shading's pull; the lit template's
     matches do not. Measured over seeds 0-2: rms 0.068-0.089 px unlit, 0.022-0.029 px lit."""
-    import cv2
-
-    from ycbvss.refine.matching import FlowOptions, flow_matches, min_eig_map, normalize_for_flow
-
     rms = {"unlit": [], "lit": []}
     for seed in range(3):
-        rng = np.random.default_rng(seed)
-        n, inside = _sphere(200, 200, 90.0)
-        tex = cv2.GaussianBlur(rng.uniform(0, 255, (200, 200, 3)).astype(np.float32), (0, 0), 2.0)
-        tex = np.clip((tex - 127) * 6 + 127, 30, 230).astype(np.uint8)
-        light = np.array([0.6, -0.5, -0.62])
-        img = _lit(tex, n, inside, 0.9 * light / np.linalg.norm(light), 0.15)
-        img = np.where(inside[..., None], img, np.uint8(90))
-        alb = np.where(inside[..., None], tex, np.uint8(90))
-        m = cv2.erode(inside.astype(np.uint8), np.ones((13, 13), np.uint8)).astype(bool)
+        n, inside, alb, img, m = _textured_lit_sphere(seed)
         for name, t in (("unlit", alb), ("lit", lit_template(alb, n, inside.astype(int), img))):
-            (a, b), = flow_matches(normalize_for_flow(t), normalize_for_flow(img), [m], FlowOptions(),
-                                   corner_image=t, dst_me=min_eig_map(img))
-            assert len(a) > 300
-            rms[name].append(float(np.sqrt(np.mean(np.sum((b - a) ** 2, axis=1)))))
+            rms[name].append(_match_rms_px(t, img, m, 6.0))
     assert max(rms["lit"]) < 0.05, rms
     assert max(rms["lit"]) < 0.5 * min(rms["unlit"]), rms
 
@@ -102,25 +114,11 @@ def test_a_narrower_contrast_normalisation_leaves_less_of_the_shading_pull():
     """FlowOptions.template_norm_sigma_px: the unlit template of a textured sphere against its lit
     image; normalising both over 3 px instead of 6 removes more of the shading's pull on the flow
     matches. Measured over seeds 0-2: rms 0.071 / 0.089 / 0.068 px at 6 px, 0.059 / 0.077 / 0.044 at 3."""
-    import cv2
-
-    from ycbvss.refine.matching import FlowOptions, flow_matches, min_eig_map, normalize_for_flow
-
     for seed in range(3):
-        rng = np.random.default_rng(seed)
-        n, inside = _sphere(200, 200, 90.0)
-        tex = cv2.GaussianBlur(rng.uniform(0, 255, (200, 200, 3)).astype(np.float32), (0, 0), 2.0)
-        tex = np.clip((tex - 127) * 6 + 127, 30, 230).astype(np.uint8)
-        light = np.array([0.6, -0.5, -0.62])
-        img = np.where(inside[..., None], _lit(tex, n, inside, 0.9 * light / np.linalg.norm(light), 0.15), np.uint8(90))
-        alb = np.where(inside[..., None], tex, np.uint8(90))
-        m = cv2.erode(inside.astype(np.uint8), np.ones((13, 13), np.uint8)).astype(bool)
+        n, inside, alb, img, m = _textured_lit_sphere(seed)
         rms = {}
         for sigma in (6.0, 3.0):
-            (a, b), = flow_matches(normalize_for_flow(alb, sigma), normalize_for_flow(img, sigma), [m], FlowOptions(),
-                                   corner_image=alb, dst_me=min_eig_map(img))
-            assert len(a) > 300
-            rms[sigma] = float(np.sqrt(np.mean(np.sum((b - a) ** 2, axis=1))))
+            rms[sigma] = _match_rms_px(alb, img, m, sigma)
         assert rms[3.0] < 0.9 * rms[6.0], (seed, rms)
 
 
