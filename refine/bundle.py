@@ -39,6 +39,7 @@ from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homogr
                     table_rotation, whitening)
 from . import table_rest
 from .table_contact import TableContactTerm, lowest_point, mean_normal, normal_sigma_deg, stacked_gap
+from .support import unsupported_mm
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
 from .turn_check import turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, shift_limit_px, sigma_add_mm,
@@ -1372,6 +1373,23 @@ def _shift_from_init_px(models: dict, views: list, vidx: dict, obj_ids: list, gi
     return np.array(med[0]), np.array(med[1])
 
 
+def _support_quality(models: dict, obj_ids: list, ok: np.ndarray, T_c: np.ndarray, T_m: np.ndarray, quality: dict) -> None:
+    """Record in ``quality`` each object's ``unsupported_mm`` (and its ``height_mm`` above the support
+    plane and ``gap_mm`` to the nearest other object; :func:`ycbvss.refine.support.unsupported_mm`)
+    at the final poses ``T_m`` (world), seen from the cameras ``T_c`` (world to camera), for the
+    objects ``ok`` (bool per object)."""
+    objs = [j for j in range(len(obj_ids)) if ok[j]]
+    if len(T_c) == 0 or not objs:
+        return
+    hulls = [np.asarray(models[o].mesh.convex_hull.vertices, np.float64) if ok[j] else None
+             for j, o in enumerate(obj_ids)]
+    surfaces = [contact_surface(models[o].mesh) if ok[j] else None for j, o in enumerate(obj_ids)]
+    res = unsupported_mm(T_m, hulls, surfaces, np.stack([inv_T(T)[:3, 3] for T in T_c]), objs)
+    for j, rec in res.items():
+        if obj_ids[j] in quality and np.isfinite(rec["unsupported_mm"]):
+            quality[obj_ids[j]].update({k: round(float(v), 3) for k, v in rec.items() if np.isfinite(v)})
+
+
 def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, quality: dict, obj_move: tuple,
               cam_move: tuple, visible: set, failed: set, turned_deg: np.ndarray,
               shift: tuple[np.ndarray, np.ndarray], view_contour_px: np.ndarray | None = None,
@@ -1413,7 +1431,8 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
                       interior_ncc=tf.ncc if tf else float("nan"), texture=tf.texture if tf else float("nan"),
                       worst_contour_px=quality[oid].get("contour_worst_px", float("nan")),
                       held_hidden=oid in held_hidden, drifting=oid in drifting,
-                      view_shift_px=float(view_shift_px[i]) if view_shift_px is not None else float("nan"))
+                      view_shift_px=float(view_shift_px[i]) if view_shift_px is not None else float("nan"),
+                      unsupported_mm=quality[oid].get("unsupported_mm", float("nan")))
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
@@ -2069,6 +2088,8 @@ def _refine_scene_once(scene, models: dict, init: dict, opt: RefineOptions, imag
     stats["view_shift_px"] = [round(float(x), 2) for x in view_shift]
     turn_gain = (_turn_gains(views, models, obj_ids, known & ~bad_obj, poses, syms, imgs)
                  if opt.turn_check else {})
+    if opt.support_check:
+        _support_quality(models, obj_ids, known & ~bad_obj, T_c[~bad_cam], T_m, quality)
     stats["confidence_s"] = time.perf_counter() - t0
     status, confidence, reasons = _statuses(poses, views, vidx, obj_ids, sigma, quality, ks.stage.obj_move,
                                             (cam_move_mm, cam_move_deg), visible, failed,

@@ -125,8 +125,9 @@ def _run(args: argparse.Namespace) -> int:
         opt.table_contact = args.table_contact
     elif enlarged_model_scales(args.dataset):
         opt.table_contact = False
+        opt.support_check = False
         print("ycbvss: the dataset's models are enlarged (YCBV-SS, synth_report.json), so its objects do not "
-              "stand on the table with their models' surfaces: table contact off", file=sys.stderr)
+              "stand on the table with their models' surfaces: table contact and the support check off", file=sys.stderr)
     for k, v in read_options_arg(args.options).items():
         setattr(opt, k, v)
     if not (opt.use_edge or opt.use_point):

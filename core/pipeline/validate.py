@@ -274,7 +274,7 @@ def run_validate(opts: ValidateOptions, stages: Stages | None = None) -> dict:
         print("ycbvss: " + pr.summary(), file=sys.stderr)
     variants = dict(VARIANTS) if opts.ablation else {"using all": {}}
     if enlarged_model_scales(root):     # YCBV-SS: enlarged models, so no table contact (see there)
-        variants = {k: {**v, "table_contact": False} for k, v in variants.items()}
+        variants = {k: {**v, "table_contact": False, "support_check": False} for k, v in variants.items()}
     with stages.stage("bundle pose refinement" + (" + ablations" if opts.ablation else "")):
         refined = refine_all(scenes, models, pr.poses, variants, opts)
     with stages.stage("evaluate"):
