@@ -55,8 +55,9 @@ def table_plane(points_w: list[np.ndarray], cam_centres_w: np.ndarray, touch_mm:
     tilted between single corners of three objects touches each with one. Either side, and each
     object's own facets: an object refined a few mm into the table is no longer above the table's
     plane, which is then not a facet of the union's hull (the facets left tilt towards it), but it
-    is still a facet of each object standing on it. Returns (unit normal n towards the cameras,
-    offset d with n . X = d, objects touching) or None."""
+    is still a facet of each object standing on it. The plane is then set to the median of the
+    lowest points of the objects touching it. Returns (unit normal n towards the cameras, offset d
+    with n . X = d, objects touching) or None."""
     pts = np.concatenate([np.asarray(p, np.float64) for p in points_w])
     owner = np.concatenate([np.full(len(p), j) for j, p in enumerate(points_w)])
     planes = np.concatenate([_hull_planes(np.asarray(p, np.float64)) for p in points_w] + [_hull_planes(pts)])
@@ -73,8 +74,13 @@ def table_plane(points_w: list[np.ndarray], cam_centres_w: np.ndarray, touch_mm:
         H = pts @ n[s0:s0 + chunk].T - d[s0:s0 + chunk]
         counts[s0:s0 + chunk] = (np.abs(H) <= touch_mm).sum(axis=0)
     k = int(np.argmax(counts))
-    near = np.abs(pts @ n[k] - d[k]) <= touch_mm
-    return n[k] / np.linalg.norm(n[k]), float(d[k] / np.linalg.norm(n[k])), len(np.unique(owner[near]))
+    nk = n[k] / np.linalg.norm(n[k])
+    h = pts @ nk - d[k] / np.linalg.norm(n[k])
+    touching = np.unique(owner[np.abs(h) <= touch_mm])
+    # every plane within the band counts the same vertices: the table lies at the median of the
+    # touching objects' lowest points (one object lifted or sunk does not move it)
+    lowest = np.array([h[owner == j].min() for j in touching])
+    return nk, float(d[k] / np.linalg.norm(n[k]) + np.median(lowest)), len(touching)
 
 
 def nearest_gap_mm(T_m: np.ndarray, surfaces: list, j: int, others: list[int]) -> float:
