@@ -83,24 +83,40 @@ def table_plane(points_w: list[np.ndarray], cam_centres_w: np.ndarray, touch_mm:
     return nk, float(d[k] / np.linalg.norm(n[k]) + np.median(lowest)), len(touching)
 
 
-def nearest_gap_mm(T_m: np.ndarray, surfaces: list, j: int, others: list[int]) -> float:
-    """Smallest Euclidean distance (mm) from object j's surface samples (``surfaces[j].points``,
-    model frame, placed by ``T_m[j]``, model to world) to the nearest surface sample of any object in
-    ``others`` (bounding spheres first); inf when none is near."""
+def nearest_gap_mm(T_m: np.ndarray, surfaces: list, j: int, others: list[int], points: np.ndarray | None = None,
+                   reach_mm: float = float("inf")) -> float:
+    """Smallest Euclidean distance (mm) from object j's surface points (``points``, model frame; default
+    ``surfaces[j].points``) placed by ``T_m[j]`` (model to world) to the nearest surface sample of
+    any object in ``others`` (:class:`ycbvss.refine.contact.ContactSurface` ``surfaces[k]``); inf
+    when none is nearer than ``reach_mm``. Exact below ``reach_mm``: the objects are visited nearest
+    bounding sphere first, and an object, a point or a KD-tree branch that cannot beat the distance
+    found so far is skipped."""
     R, t = T_m[j][:3, :3], T_m[j][:3, 3]
-    W = surfaces[j].points @ R.T + t
+    W = (surfaces[j].points if points is None else points) @ R.T + t
     cj = R @ surfaces[j].centre + t
-    best = float("inf")
+    cands = []
     for k in others:
         if k == j:
             continue
-        Rk, tk = T_m[k][:3, :3], T_m[k][:3, 3]
-        centre_gap = float(np.linalg.norm(cj - (Rk @ surfaces[k].centre + tk))) - surfaces[j].radius_mm - surfaces[k].radius_mm
-        if centre_gap > best:
-            continue
-        d, _ = surfaces[k].tree.query((W - tk) @ Rk, k=1)
+        ck = T_m[k][:3, :3] @ surfaces[k].centre + T_m[k][:3, 3]
+        cands.append((float(np.linalg.norm(cj - ck)) - surfaces[j].radius_mm - surfaces[k].radius_mm, k, ck))
+    cands.sort(key=lambda c: c[0])
+    best = float(reach_mm)
+    if cands and len(W) > 256:
+        # an upper bound first, from every 16th point against the nearest sphere's object: the full
+        # queries below then stop at it in the KD-tree (the result is the same)
+        _, k, _ = cands[0]
+        d, _ = surfaces[k].tree.query((W[::16] - T_m[k][:3, 3]) @ T_m[k][:3, :3], k=1, distance_upper_bound=best)
         best = min(best, float(np.min(d)))
-    return best
+    for centre_gap, k, ck in cands:
+        if centre_gap >= best:
+            break
+        near = W[np.linalg.norm(W - ck, axis=1) < surfaces[k].radius_mm + best]
+        if not len(near):
+            continue
+        d, _ = surfaces[k].tree.query((near - T_m[k][:3, 3]) @ T_m[k][:3, :3], k=1, distance_upper_bound=best)
+        best = min(best, float(np.min(d)))
+    return best if best < reach_mm else float("inf")
 
 
 def unsupported_mm(T_m: np.ndarray, hull_points: list, surfaces: list, cam_centres_w: np.ndarray,

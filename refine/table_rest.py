@@ -36,6 +36,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from ..geometry.so3 import hat
 from .problem import BundleProblem
+from .support import nearest_gap_mm
 
 _S = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])     # (-z) x d = (d_y, -d_x, 0)
 _CACHE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
@@ -148,25 +149,7 @@ def free_standing(T_m: np.ndarray, surfaces: list, points: list, held: list[int]
     object's surface (``surfaces[k]``: :class:`refine.contact.ContactSurface`, nearest sample; any
     other object with a finite pose, bounding spheres first): nothing there to lean on."""
     others = [k for k in range(len(T_m)) if np.all(np.isfinite(T_m[k]))]
-    free = []
-    for j in held:
-        R, t = T_m[j][:3, :3], T_m[j][:3, 3]
-        W = points[j] @ R.T + t
-        cj = R @ surfaces[j].centre + t
-        near = False
-        for k in others:
-            if k == j:
-                continue
-            Rk, tk = T_m[k][:3, :3], T_m[k][:3, 3]
-            if np.linalg.norm(cj - (Rk @ surfaces[k].centre + tk)) > surfaces[j].radius_mm + surfaces[k].radius_mm + reach_mm:
-                continue
-            d, _ = surfaces[k].tree.query((W - tk) @ Rk, k=1)
-            if float(np.min(d)) < reach_mm:
-                near = True
-                break
-        if not near:
-            free.append(j)
-    return frozenset(free)
+    return frozenset(j for j in held if not nearest_gap_mm(T_m, surfaces, j, others, points[j], reach_mm) < reach_mm)
 
 
 def geman_mcclure(s: np.ndarray | float, c: float) -> tuple:
