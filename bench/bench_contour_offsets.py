@@ -81,14 +81,14 @@ def gt_view_matches(vr, img: np.ndarray, lit: bool | np.ndarray = False,
 
     from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches_lit
     from ycbvss.refine.matching import min_eig_map
-    from ycbvss.refine.templates import object_mask
+    from ycbvss.refine.match_mask import match_mask
 
     opt = RefineOptions()
     if norm_sigma_px is not None:
         opt.flow = replace(opt.flow, template_norm_sigma_px=float(norm_sigma_px))
     objs = [j for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px]
     box = y0, y1, x0, x1 = _bbox(vr.instance > 0, opt.flow_margin_px)
-    masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
+    masks = [match_mask(vr.mask(j), opt.match_erode_px, opt.match_core_px)[y0:y1, x0:x1] for j in objs]
     # as the refiner makes them (a supersampled render: the pixel-area template, see RefineOptions.template_supersample)
     colour = lit if isinstance(lit, np.ndarray) else (True if lit else None)
     matches, _ = _view_matches_lit(vr, img, box, colour, None, masks, opt.flow, min_eig_map(img)[y0:y1, x0:x1])

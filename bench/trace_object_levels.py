@@ -6,7 +6,8 @@
 Prints, at the start and end of every level of every stage (keyframe bundle, camera-only chunks,
 restart passes in order), the object's ADD (mm), its translation error (mm, in the stage's first
 camera) and rotation error (deg) against the exact GT, then the restart/regroup stats and the
-object's final status. A diagnostic: the pose is read from the problem the stage solves, so a camera
+object's final status; the rotation error is also given as the rotation vector of GT^-1 * pose
+in the model frame (deg about model x, y, z: a turn about a symmetry axis shows on that axis alone). A diagnostic: the pose is read from the problem the stage solves, so a camera
 that is itself off shows as an object error in that stage's first view.
 """
 from __future__ import annotations
@@ -36,6 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     warnings.simplefilter("ignore")
     import ycbvss.refine.bundle as B
     from ycbvss.eval.metrics import pose_errors_4x4
+    from ycbvss.geometry.so3 import log_so3
     from ycbvss.io.bop import load_bop_scene
     from ycbvss.pipeline.suite import build_suite, clips_of
     from ycbvss.pipeline.suite_run import Run, refine_run
@@ -68,12 +70,17 @@ def main(argv: list[str] | None = None) -> int:
         G = gt[(im_id, a.obj)]
         e = pose_errors_4x4(T, G, Ks[(im_id, a.obj)], pts)
         d = T[:3, 3] - G[:3, 3]
+        w = np.degrees(log_so3(G[:3, :3].T @ T[:3, :3]))
         print(f"{stage:10s} level {sigma:4.1f} px {tag:5s} view {im_id:4d}: ADD {e['add_mm']:7.2f} mm, "
-              f"t err ({d[0]:6.2f}, {d[1]:6.2f}, {d[2]:6.2f}) mm, R {e['r_deg']:5.2f} deg")
+              f"t err ({d[0]:6.2f}, {d[1]:6.2f}, {d[2]:6.2f}) mm, R {e['r_deg']:5.2f} deg "
+              f"(model axes {w[0]:+6.2f} {w[1]:+6.2f} {w[2]:+6.2f})")
     print("stats:", {k: res.stats.get(k) for k in ("baseline_group", "baseline_deg", "regroup", "slide_restart",
                                                     "turn_restart", "isolate_slid", "sweep_again", "ridge_fallback")})
     k = sorted(x for x in res.poses if x[1] == a.obj)[0]
     print(f"final (view {k[0]}): {res.status.get(k)}: {res.reasons.get(k)}; {dt:.0f} s")
+    q = res.quality.get(a.obj, {})
+    print("quality:", {n: (round(v, 4) if isinstance(v, float) else v) for n, v in q.items()
+                       if isinstance(v, (int, float, str, bool))})
     return 0
 
 

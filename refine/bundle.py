@@ -33,7 +33,7 @@ from .solver import SolverOptions, covariance, run_lm
 from .shading import lit_template, view_lighting
 from .threads import single_threaded_kernels, view_pool as _view_pool
 from .evidence import _TurnFit, _quality_on_views, _turn_gains, _view_contour_offsets
-from .templates import (EdgeCandidates, ViewRender, area_template, composite, ensure_meshes, get_renderer, object_mask,
+from .templates import (EdgeCandidates, ViewRender, area_template, composite, ensure_meshes, get_renderer,
                         render_view, select_edge_samples, view_edge_candidates, with_area)
 from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
                     table_rotation, whitening)
@@ -41,6 +41,7 @@ from . import table_rest
 from .table_contact import TableContactTerm, lowest_point, mean_normal, normal_sigma_deg, stacked_gap
 from .support import unsupported_mm
 from .terms import EdgeGroup, EdgeTerm, PointGroup, PointTerm, TemporalGroup, TemporalTerm
+from .match_mask import match_mask
 from .turn_check import turned_wrong
 from .confidence import (BASELINE_GROUPS, REF_WIDTH_PX, baseline_group, calibrate_sigmas, classify, shift_limit_px, sigma_add_mm,
                          sigma_floor, sigma_scale, unsettled_sigma_t_mm)
@@ -332,7 +333,7 @@ class _Stage:
                 continue
             box = _bbox(vr.instance > 0, opt.flow_margin_px)
             y0, y1, x0, x1 = box
-            masks = [object_mask(vr, j, opt.match_erode_px)[y0:y1, x0:x1] for j in objs]
+            masks = [match_mask(vr.mask(j), opt.match_erode_px, opt.match_core_px)[y0:y1, x0:x1] for j in objs]
             lit = self._lit.get(i, True) if self.shading and vr.normal is not None else None
             jobs.append((i, vr, objs, (x0, y0), _view_pool().submit(
                 _view_matches_lit, vr, pb.views[i].image, box, lit, self._light.get(i), masks, opt.flow,
@@ -400,7 +401,7 @@ class _Stage:
             (fab, fba), box = self._flows[key]
             flows = (fab, fba) if k == key[0] else (fba, fab)
             match_jobs.append((k, i, vr, box, _view_pool().submit(
-                _pair_matches, vr, opt.match_erode_px, box, flows, opt.flow, pb.views[k].image, self.me_image(k),
+                _pair_matches, vr, opt.match_erode_px, opt.match_core_px, box, flows, opt.flow, pb.views[k].image, self.me_image(k),
                 self.me_image(i))))
         groups = []
         for k, i, vr, (y0, y1, x0, x1), job in match_jobs:
@@ -878,14 +879,16 @@ def _pair_flows(img_a: np.ndarray, img_b: np.ndarray, box: tuple[int, int, int, 
     return dense_flow_pair(a, b, flow, init_ab, init_ba)
 
 
-def _pair_matches(vr: ViewRender, erode_px: int, box: tuple[int, int, int, int], flows: tuple[np.ndarray, np.ndarray],
-                  flow: FlowOptions, image_k: np.ndarray, me_k: np.ndarray, me_i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """f_t's matches of view k (render ``vr``, its objects eroded by ``erode_px``) into view i along
+def _pair_matches(vr: ViewRender, erode_px: int, core_px: int, box: tuple[int, int, int, int],
+                  flows: tuple[np.ndarray, np.ndarray], flow: FlowOptions, image_k: np.ndarray, me_k: np.ndarray,
+                  me_i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """f_t's matches of view k (render ``vr``, its objects eroded by ``erode_px``, each keeping a core of
+    ``core_px``: :func:`ycbvss.refine.match_mask.match_mask`) into view i along
     ``flows`` (k -> i, i -> k) in ``box``: crop coordinates. A view-pool job of :meth:`_Stage._temporal_term`."""
     y0, y1, x0, x1 = box
     m = np.zeros(vr.instance.shape, bool)
     for j in vr.obj_index:
-        m |= object_mask(vr, j, erode_px)
+        m |= match_mask(vr.mask(j), erode_px, core_px)
     (xs, xd), = flow_matches(None, None, [m[y0:y1, x0:x1]], flow, flows=flows, corner_image=image_k[y0:y1, x0:x1],
                              corner_me=me_k[y0:y1, x0:x1], dst_me=me_i[y0:y1, x0:x1])
     return xs, xd

@@ -433,6 +433,10 @@ class RefineOptions:
     extend_mm: float = 0.1            # ... by more than this (mm) per outer iteration, in a steady direction
     n_matches: int = 1000
     match_erode_px: int = 6
+    # ... but never more than a silhouette's inscribed radius minus this (px; 0: the fixed erosion), so
+    # a thin or sliver silhouette keeps a core of flow matches (refine.match_mask: the large marker,
+    # ~13 px across at 1.4 m, had none under the fixed 6 px and slid and turned about its axis)
+    match_core_px: int = 3
     flow_margin_px: int = 24
     flow_prior: bool | str = False    # f_t's flow from the motion the current estimate predicts (refine.flow_prior): "residual" warps by it, True starts Farneback from it (bias_removal_groups: "residual" on medium and wide scenes)
     # blur levels at which flow_prior applies: "finest" (the coarser levels use the plain flow, computed
