@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("what", choices=("run", "report"))
     ap.add_argument("--dataset", required=True, help="YCB-Video root (or BOP root) with the 21 models")
     ap.add_argument("--suite-root", required=True)
-    ap.add_argument("--suite", default="ycbv21", help="ycbv21, ycbv21-fresh (test scenes 31-36), ycbv21-fresh2 (test scenes 41-46, sealed until session 75), ycbv21-fresh3 (sealed test scenes 51-56), ycbv21-long2 (long test scenes 61-63, sealed until session 83), ycbv21-long3 (sealed long test scenes 64-66) or ycbv21-ci")
+    ap.add_argument("--suite", default="ycbv21", help="ycbv21, ycbv21-fresh (test scenes 31-36), ycbv21-fresh2 (test scenes 41-46, sealed until session 75), ycbv21-fresh3 (sealed test scenes 51-56), ycbv21-long2 (long test scenes 61-63, sealed until session 83), ycbv21-long3 (long test scenes 64-66, sealed until session 85), ycbv21-long4 (sealed long test scenes 67-69) or ycbv21-ci")
     ap.add_argument("--scenes", default="1,2,3,4,5,6,7,8,9")
     ap.add_argument("--kinds", default="short,medium,long")
     ap.add_argument("--inits", default="paper")

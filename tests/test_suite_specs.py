@@ -28,7 +28,7 @@ def test_fresh_scenes_are_sealed_new_and_cover_every_object_twice(suite):
     assert all({c.kind for c in clips_of(s)} == {"short", "medium"} for s in YCBV21_FRESH)
 
 
-@pytest.mark.parametrize("suite", ["ycbv21-long2", "ycbv21-long3"])
+@pytest.mark.parametrize("suite", ["ycbv21-long2", "ycbv21-long3", "ycbv21-long4"])
 def test_sealed_long_scenes_are_new_and_cover_every_object_once(suite):
     specs = SUITES[suite]
     n = Counter(o for s in specs for o in s.obj_ids)
