@@ -6,9 +6,10 @@
 Prints, at the start and end of every level of every stage (keyframe bundle, camera-only chunks,
 restart passes in order), the object's ADD (mm), its translation error (mm, in the stage's first
 camera) and rotation error (deg) against the exact GT, then the restart/regroup stats and the
-object's final status; the rotation error is also given as the rotation vector of GT^-1 * pose
-in the model frame (deg about model x, y, z: a turn about a symmetry axis shows on that axis alone). A diagnostic: the pose is read from the problem the stage solves, so a camera
-that is itself off shows as an object error in that stage's first view.
+object's final status and quality. The rotation error is also given as the rotation vector of
+GT^-1 * pose in the model frame (deg about model x, y, z: a turn about a symmetry axis shows on that
+axis alone). A diagnostic: the pose is read from the problem the stage solves, so a camera that is
+itself off shows as an object error in that stage's first view.
 """
 from __future__ import annotations
 

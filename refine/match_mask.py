@@ -35,18 +35,18 @@ def match_erosion_px(mask: np.ndarray, erode_px: int, core_px: int) -> int:
         return 0
     if core_px <= 0:
         return int(erode_px)
-    ys, xs = np.nonzero(mask)
-    if not len(ys):
+    m = np.asarray(mask).astype(np.uint8, copy=False)
+    x, y, w, h = cv2.boundingRect(m)
+    if w == 0 or h == 0:
         return int(erode_px)
-    crop = np.zeros((ys.max() - ys.min() + 3, xs.max() - xs.min() + 3), np.uint8)   # a 1 px frame of background
-    crop[ys - ys.min() + 1, xs - xs.min() + 1] = 1
+    crop = cv2.copyMakeBorder(m[y:y + h, x:x + w], 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)   # a 1 px frame of background
     r_px = float(cv2.distanceTransform(crop, cv2.DIST_L2, 5).max())
     return int(np.clip(int(np.floor(r_px)) - int(core_px), MIN_ERODE_PX, erode_px))
 
 
 def match_mask(mask: np.ndarray, erode_px: int, core_px: int) -> np.ndarray:
     """``mask`` (H, W) eroded by :func:`match_erosion_px` with a square (2e + 1) kernel, as bool."""
-    m = np.asarray(mask).astype(np.uint8)
+    m = np.asarray(mask).astype(np.uint8, copy=False)
     e = match_erosion_px(m, erode_px, core_px)
     if e > 0 and m.any():
         m = cv2.erode(m, np.ones((2 * e + 1, 2 * e + 1), np.uint8))
