@@ -45,7 +45,8 @@ def pair_stats(fk, fi, models: dict, renderer, start: str, prior_deg: float = 0.
     from ycbvss.refine.flow_prior import predicted_flow, relative_motion
     from ycbvss.refine.matching import (FlowOptions, dense_flow_pair, flow_matches, min_eig_map, normalize_for_flow,
                                         residual_flow_pair)
-    from ycbvss.refine.templates import object_mask, render_view
+    from ycbvss.refine.match_mask import match_mask
+    from ycbvss.refine.templates import render_view
 
     opt = FlowOptions()
     ik, ii = fk.load_rgb(), fi.load_rgb()
@@ -58,7 +59,7 @@ def pair_stats(fk, fi, models: dict, renderer, start: str, prior_deg: float = 0.
     vk = render(fk)
     mask = np.zeros((H, W), bool)
     for j in vk.obj_index:
-        mask |= object_mask(vk, j, 6)
+        mask |= match_mask(vk.mask(j), 6, 0)     # the fixed 6 px erosion this bench measured
     init_ab = init_ba = None
     if start in ("predicted", "residual"):
         vi = render(fi)

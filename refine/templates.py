@@ -345,11 +345,6 @@ def select_edge_samples(vr: ViewRender, K: np.ndarray, cands: EdgeCandidates, n_
 
 
 
-def object_mask(vr: ViewRender, j: int, erode_px: int = 2) -> np.ndarray:
-    m = vr.mask(j).astype(np.uint8)
-    if erode_px > 0 and m.any():
-        m = cv2.erode(m, np.ones((2 * erode_px + 1, 2 * erode_px + 1), np.uint8))
-    return m > 0
 
 
 def composite(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int] | None = None,
