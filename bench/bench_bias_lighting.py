@@ -13,6 +13,7 @@ A bias that shrinks with the ambient render is caused by the template-vs-image s
 from __future__ import annotations
 
 import argparse
+import json
 import shutil
 import warnings
 from pathlib import Path
@@ -23,8 +24,15 @@ TERM_SETS = {"all terms": {}, "points only": {"use_edge": False},
              "edges only": {"use_point": False, "use_temporal": False}}
 
 
-def render_variant(spec, models: dict, root: Path, frames: list[int], ambient: bool) -> Path:
-    """Blender-render ``frames`` of suite scene ``spec`` into a BOP dataset under ``root``."""
+# lighting variants: (name, render_blender keyword arguments)
+VARIANTS = {"suite": ("sun + ambient (suite)", {}),
+            "ambient": ("ambient only", {"lights": [], "world_strength": 1.0}),
+            "emission": ("unlit (emission: the texture's colour only)", {"material": "emission"})}
+
+
+def render_variant(spec, models: dict, root: Path, frames: list[int], light: dict) -> Path:
+    """Blender-render ``frames`` of suite scene ``spec`` with ``light`` (a :data:`VARIANTS` entry's
+    keyword arguments) into a BOP dataset under ``root``."""
     from ycbvss.gt_info import compute_gt_info
     from ycbvss.pipeline.blender_scene import render_blender
     from ycbvss.io.bop import BopSceneWriter
@@ -36,7 +44,6 @@ def render_variant(spec, models: dict, root: Path, frames: list[int], ambient: b
     sc = make_ycbv_scene(models, list(spec.obj_ids), seed=spec.seed, n_frames=spec.n_frames,
                          arc_deg=spec.arc_deg, width=640, height=480, scene_id=spec.scene_id)
     sc.frames = [f for f in sc.frames if f.im_id in set(frames)]
-    light = {"lights": [], "world_strength": 1.0} if ambient else {}
     gl = Renderer()
     writer = BopSceneWriter(root / "test", spec.scene_id)
     by_id = {f.im_id: f for f in sc.frames}
@@ -71,25 +78,30 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--dataset", required=True, help="YCB-Video root (models/) or BOP root (models/)")
     ap.add_argument("--out", required=True, type=Path)
-    ap.add_argument("--scene", type=int, default=1, help="a ycbv21 suite scene with >= 176 frames (1-3)")
+    ap.add_argument("--suite", default="ycbv21", help="a suite of ycbvss.pipeline.suite.SUITES")
+    ap.add_argument("--scene", type=int, default=1, help="a scene of the suite with >= 176 frames (ycbv21: 1-3)")
     ap.add_argument("--frames", default="0,25,50,75,100,125,150,175")
+    ap.add_argument("--variants", default="suite,ambient", help=f"lightings to render, of {','.join(VARIANTS)}")
+    ap.add_argument("--terms", default=",".join(TERM_SETS), help=f"term sets, of {','.join(TERM_SETS)}")
+    ap.add_argument("--options", default="{}", help="RefineOptions overrides for every run, a JSON object")
     a = ap.parse_args()
     warnings.simplefilter("ignore")
-    from ycbvss.pipeline.suite import YCBV21, suite_models
+    from ycbvss.pipeline.suite import SUITES, suite_models
 
-    spec = next(s for s in YCBV21 if s.scene_id == a.scene)
+    spec = next(s for s in SUITES[a.suite] if s.scene_id == a.scene)
     frames = [int(x) for x in a.frames.split(",")]
     models = suite_models(a.dataset, a.out / "models_src", spec.obj_ids)
     results = {}
-    for name, ambient in (("sun + ambient (suite)", False), ("ambient only", True)):
-        root = a.out / ("ambient" if ambient else "suite_lights")
+    for v in a.variants.split(","):
+        name, light = VARIANTS[v]
+        root = a.out / {"suite": "suite_lights"}.get(v, v)
         if not (root / "models").is_dir():
             shutil.copytree(a.out / "models_src" / "models", root / "models")
-        render_variant(spec, models, root, frames, ambient)
-        for terms, kw in TERM_SETS.items():
-            results[(name, terms)] = bias_from_gt(root, spec, models, kw)
+        render_variant(spec, models, root, frames, light)
+        for terms in a.terms.split(","):
+            results[(name, terms)] = bias_from_gt(root, spec, models, {**json.loads(a.options), **TERM_SETS[terms]})
     for (name, terms), per in results.items():
-        print(f"== {name}, {terms} (scene {spec.scene_id}, {len(frames)} frames, cameras fixed at GT)")
+        print(f"== {name}, {terms} (scene {spec.scene_id}, {len(frames)} frames, cameras fixed at GT; options {a.options})")
         for o, (r, axis, dt) in per.items():
             print(f"  obj {o:2d}: R {r:.3f} deg (axis {np.round(axis, 3)})  t {np.round(dt, 2)} mm")
 

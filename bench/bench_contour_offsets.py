@@ -70,13 +70,15 @@ def gt_views(a: argparse.Namespace):
 
 
 def gt_view_matches(vr, img: np.ndarray, lit: bool | np.ndarray = False,
-                    norm_sigma_px: float | None = None) -> tuple[list[int], list]:
+                    norm_sigma_px: float | None = None, reflection_K: np.ndarray | None = None) -> tuple[list[int], list]:
     """f_point's template-to-image flow matches of one GT view as the refiner makes them (default
     RefineOptions; crop coordinates): (object indices with at least ``min_visible_px`` visible,
     their (src, dst) matches). ``lit``: True, the template lit by the fitted lighting
     (``RefineOptions.template_shading``); an (H, W, 3) array, that colour as the template (of a
     point-sampled render). Shared by ``bench_match_scale.py``, ``bench_template_shading.py`` and
-    ``bench_height_lighting.py``. ``norm_sigma_px``: FlowOptions.template_norm_sigma_px (None: its default)."""
+    ``bench_height_lighting.py``. ``norm_sigma_px``: FlowOptions.template_norm_sigma_px (None: its default).
+    ``reflection_K``: with ``lit`` True, the lighting also has the glossy reflection's basis of this
+    camera (``RefineOptions.shading_reflection``)."""
     from dataclasses import replace
 
     from ycbvss.refine.bundle import RefineOptions, _bbox, _view_matches_lit
@@ -91,7 +93,8 @@ def gt_view_matches(vr, img: np.ndarray, lit: bool | np.ndarray = False,
     masks = [match_mask(vr.mask(j), opt.match_erode_px, opt.match_core_px)[y0:y1, x0:x1] for j in objs]
     # as the refiner makes them (a supersampled render: the pixel-area template, see RefineOptions.template_supersample)
     colour = lit if isinstance(lit, np.ndarray) else (True if lit else None)
-    matches, _ = _view_matches_lit(vr, img, box, colour, None, masks, opt.flow, min_eig_map(img)[y0:y1, x0:x1])
+    matches, _ = _view_matches_lit(vr, img, box, colour, None, masks, opt.flow, min_eig_map(img)[y0:y1, x0:x1],
+                                   reflection_K=reflection_K)
     return objs, [(a[: opt.n_matches], b[: opt.n_matches]) for a, b in matches]
 
 

@@ -24,13 +24,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_view_args(ap)
     ap.add_argument("--min-matches", type=int, default=10)
+    ap.add_argument("--reflection", action="store_true",
+                    help="the lit template's lighting also has the glossy reflection's basis (RefineOptions.shading_reflection)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     per: dict = {}           # obj_id -> {"unlit": [(rms, |mean|, n)], "lit": [...]}
     models: dict = {}
-    for models, _, _, img, vr, oids in gt_views(a):
+    for models, _, frame, img, vr, oids in gt_views(a):
         for name in ("unlit", "lit"):
-            objs, matches = gt_view_matches(vr, img, lit=name == "lit")
+            objs, matches = gt_view_matches(vr, img, lit=name == "lit",
+                                            reflection_K=frame.camera.K if a.reflection and name == "lit" else None)
             for j, (xs, xd) in zip(objs, matches):
                 if len(xs) < a.min_matches:
                     continue
@@ -40,7 +43,8 @@ def main() -> None:
     cols = ["groups", "unlit: rms (px)", "unlit: |mean| (px)", "unlit: matches",
             "lit: rms (px)", "lit: |mean| (px)", "lit: matches"]
     t = Table(cols, label_header="object", digits=3,
-              caption=f"f_point's flow matches at the exact GT, unlit against lit template: rms and mean displacement "
+              caption=f"f_point's flow matches at the exact GT, unlit against lit template"
+                      f"{' (lighting with the glossy reflection basis)' if a.reflection else ''}: rms and mean displacement "
                       f"per (view, object) (0 = exact); scenes {a.scenes}, frame positions {a.frames}")
 
     def stats(L: list) -> list[float]:

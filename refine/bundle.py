@@ -30,7 +30,7 @@ from .matching import (FlowOptions, dense_flow_pair, flow_matches, min_eig_map, 
 from .openness import open_points
 from .problem import BundleProblem, View, model_moments
 from .solver import SolverOptions, covariance, run_lm
-from .shading import lit_template, view_lighting
+from .shading import lit_template, reflection_basis, view_lighting
 from .threads import single_threaded_kernels, view_pool as _view_pool
 from .evidence import _TurnFit, _quality_on_views, _turn_gains, _view_contour_offsets
 from .templates import (EdgeCandidates, ViewRender, area_template, composite, ensure_meshes, get_renderer,
@@ -92,6 +92,8 @@ class _Stage:
         # and kept for the level: the lighting is the image's, the poses move it only through which
         # pixels the fit sees (refitted every outer iteration before 2026-11-27: 9 fits per view, not 1-4)
         self._light: dict[int, np.ndarray] = {}
+        # the same for f_point's templates when only they have the reflection basis (shading_reflection "point")
+        self._light_point: dict[int, np.ndarray] = {}
         self._T_m_starts: list[np.ndarray] = []
         self.fold_angle = opt.fold_min_angle_deg
         self.at_finest = True            # run() sets it per blur level (interior_min_sharpness applies at the finest)
@@ -114,6 +116,17 @@ class _Stage:
 
     def _t(self, key: str, dt: float) -> None:
         self.stats[key] = self.stats.get(key, 0.0) + dt
+
+    def _reflection_K(self, i: int, point: bool = False) -> np.ndarray | None:
+        """View ``i``'s camera matrix when the template lighting (of f_point's templates: ``point``)
+        has the glossy reflection's basis (``RefineOptions.shading_reflection``), else None."""
+        on = self.opt.shading_reflection
+        return self.pb.views[i].K if (on is True or on == "all" or (on == "point" and point)) else None
+
+    @property
+    def _point_own_light(self) -> bool:
+        """f_point's templates are lit apart from f_edge's (only they have the reflection basis)."""
+        return self.opt.shading_reflection == "point"
 
     def me_image(self, i: int) -> np.ndarray:
         if i not in self._me:
@@ -288,7 +301,7 @@ class _Stage:
                       table_offset=self.opt.edge_table_offset)
         return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] or ridge_lit else None,
                                    self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
-                                   eo["app"], ridge_lit, self.opt.shading_rim_px)
+                                   eo["app"], ridge_lit, self.opt.shading_rim_px, self._reflection_K(i))
 
     def _edge_term(self, fields: dict, jobs: list, vis: set, eo: dict) -> EdgeTerm:
         """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
@@ -334,14 +347,15 @@ class _Stage:
             box = _bbox(vr.instance > 0, opt.flow_margin_px)
             y0, y1, x0, x1 = box
             masks = [match_mask(vr.mask(j), opt.match_erode_px, opt.match_core_px)[y0:y1, x0:x1] for j in objs]
-            lit = self._lit.get(i, True) if self.shading and vr.normal is not None else None
+            own = self._point_own_light
+            lit = (True if own else self._lit.get(i, True)) if self.shading and vr.normal is not None else None
             jobs.append((i, vr, objs, (x0, y0), _view_pool().submit(
-                _view_matches_lit, vr, pb.views[i].image, box, lit, self._light.get(i), masks, opt.flow,
-                self.me_image(i)[y0:y1, x0:x1], opt.shading_rim_px)))
+                _view_matches_lit, vr, pb.views[i].image, box, lit, (self._light_point if own else self._light).get(i),
+                masks, opt.flow, self.me_image(i)[y0:y1, x0:x1], opt.shading_rim_px, self._reflection_K(i, point=True))))
         for i, vr, objs, (x0, y0), job in jobs:
             found, light = job.result()
             if light is not None:
-                self._light[i] = light
+                (self._light_point if self._point_own_light else self._light)[i] = light
             matches = [(a + (x0, y0), b + (x0, y0)) for a, b in found]
             for j, (xs, xd) in zip(objs, matches):
                 if len(xs) == 0:
@@ -804,6 +818,7 @@ class _Stage:
             fields = {i: job.result() for i, job in jobs.items()}     # the views' fields on the view pool
             self._t("edge_field_s", time.perf_counter() - t0)
             self._light.clear()
+            self._light_point.clear()
             if li > 0 and opt.flow_prior and (opt.flow_prior_levels == "all" or self.at_finest):
                 self._flows.clear()    # f_t's flows follow the estimate: predicted again from this level's start
             if li > 0 and opt.verify_coarse:
@@ -905,31 +920,35 @@ def _table_pair_rotation(img_k: np.ndarray, img_i: np.ndarray, objects_k: np.nda
 
 
 def _lit_colour(vr: ViewRender, image: np.ndarray, light: np.ndarray | None,
-                rim_px: int = 0) -> tuple[np.ndarray, np.ndarray | None]:
-    """View render ``vr``'s template colour lit by ``light`` (3, 9), or by the lighting fitted to
+                rim_px: int = 0, reflection_K: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """View render ``vr``'s template colour lit by ``light`` (3, 9 [+ 4]), or by the lighting fitted to
     ``image`` here when None (:mod:`ycbvss.refine.shading`; ``rim_px``: the silhouettes' outer
-    band keeps the shading further in, ``RefineOptions.shading_rim_px``): (lit colour, the lighting used)."""
+    band keeps the shading further in, ``RefineOptions.shading_rim_px``; ``reflection_K``: the view's
+    camera matrix when the lighting has the glossy reflection's basis, ``RefineOptions.shading_reflection``):
+    (lit colour, the lighting used)."""
+    add = None if reflection_K is None else reflection_basis(vr.normal, reflection_K)
     if light is None:
-        light = view_lighting(vr.color, vr.normal, vr.instance, image)
+        light = view_lighting(vr.color, vr.normal, vr.instance, image, additive=add)
     if light is None:        # too few pixels to fit: the unlit template (lit_template would fit again)
         return np.asarray(vr.color), None
-    return lit_template(vr.color, vr.normal, vr.instance, image, coeffs=light, rim_px=rim_px), light
+    return lit_template(vr.color, vr.normal, vr.instance, image, coeffs=light, rim_px=rim_px, additive=add), light
 
 
 def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np.ndarray | None, lit: bool,
                          light: np.ndarray | None, kw: dict, app: bool = True,
-                         ridge_lit: bool = False, rim_px: int = 0) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
+                         ridge_lit: bool = False, rim_px: int = 0,
+                         reflection_K: np.ndarray | None = None) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
     """One view's contour/interior candidates (:func:`view_edge_candidates` with the options ``kw``;
     ``image``: the view's image for the contour's appearance prediction, None: none). ``lit``: that
     prediction uses the lit template (``lit_color`` when already made, else made here with the
     view's lighting ``light``, fitted here when None). Returns (the lit colour or None, the
     lighting or None, the candidates)."""
     if lit and lit_color is None:
-        lit_color, light = _lit_colour(vr, image, light, rim_px)
+        lit_color, light = _lit_colour(vr, image, light, rim_px, reflection_K)
     if ridge_lit:            # the interior samples' template (area colour or vr.color) lit as the image
         base = kw.get("interior_color")
         base_vr = vr if base is None else dc_replace(vr, color=base)
-        icol, light = _lit_colour(base_vr, image, light, rim_px)     # the lighting passed in, or fitted here
+        icol, light = _lit_colour(base_vr, image, light, rim_px, reflection_K)   # the lighting passed in, or fitted here
         kw = dict(kw, interior_color=icol)
     return ((lit_color, light) if lit or ridge_lit else (None, None)) + (
         view_edge_candidates(vr, image=image if app else None, appearance_color=lit_color if lit else None, **kw),)
@@ -938,7 +957,8 @@ def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np
 def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int],
                       lit: np.ndarray | bool | None, light: np.ndarray | None, masks: list[np.ndarray],
                       flow: FlowOptions, dst_me: np.ndarray,
-                      rim_px: int = 0) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
+                      rim_px: int = 0,
+                      reflection_K: np.ndarray | None = None) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
     """:func:`_view_matches` of the template composited over the view's ``image`` in ``box``
     (y0, y1, x0, x1), and the lighting used. ``lit``: None, the unlit template; an array, that lit
     colour; True, the template lit by ``light`` (fitted to the image here when None)."""
@@ -948,7 +968,7 @@ def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, in
         if lit is not None:
             lit = True         # a lit colour passed in is the point-sampled one's: light the area colour
     if lit is True:
-        lit, light = _lit_colour(vr, image, light, rim_px)
+        lit, light = _lit_colour(vr, image, light, rim_px, reflection_K)
     if lit is not None:
         vr = dc_replace(vr, color=lit)
     y0, y1, x0, x1 = box

@@ -219,6 +219,11 @@ class RefineOptions:
     # 0.442/0.242/0.141, held-out scenes tz 0.252 -> 0.641 mm (bench/results/ycbv21/shading_rim_s66).
     # 0: off
     shading_rim_px: int = 0
+    # with template_shading: the view's lighting fit also has the glossy reflection's additive basis
+    # (refine.shading.reflection_basis: 1 and the mirror direction, per channel): the light a surface
+    # reflects whatever its albedo, which lifts and greys dark objects in a Cycles image or a photo
+    # (True or "all"); "point": f_point's templates only (f_edge's contour appearance keeps the SH lighting)
+    shading_reflection: bool | str = False
     # > 1: f_point's flow template is integrated over each pixel's area at this many sub-pixels per
     # axis, and its silhouette pixels mixed with the background by their coverage
     # (refine.templates.average_subpixels), as a camera forms an image; 1: sampled at the pixel centres.
