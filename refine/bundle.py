@@ -258,7 +258,7 @@ class _Stage:
         level_sigma = next(iter(fields.values())).sigma_px if fields else 1.0
         # the nuisance at the finest level only: the coarser levels keep the contour's full size
         # information to pull a depth that starts centimetres off (paper init) into the basin
-        dil = ((opt.edge_dilation_k > 0.0 or opt.edge_contact_offset_k > 0.0)
+        dil = ((opt.edge_dilation_k > 0.0 or opt.edge_contact_offset_k > 0.0 or opt.edge_shift_k > 0.0)
                and level_sigma <= DILATION_MAX_SIGMA_PX * pb.views[0].width / 640.0 + 1e-9)
         sharp = self.min_sharpness if self.at_finest else 0.0
         erode = max(2, int(np.ceil(opt.interior_erode_sigmas * level_sigma - 1e-9))) if opt.interior_erode_sigmas > 0 else 2
@@ -329,6 +329,7 @@ class _Stage:
         term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
                         curv_floor=opt.edge_curv_floor / sig,
                         dilation_k=(opt.edge_dilation_k or opt.edge_contact_offset_k) if eo["dil"] else 0.0,
+                        shift_k=opt.edge_shift_k if eo["dil"] else 0.0,
                         across_only=opt.edge_across_only)
         self._t("edge_sampling_s", time.perf_counter() - t0)
         return term
@@ -1810,7 +1811,7 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v > 0.0):
             raise YcbvssError(f"RefineOptions.{name} must be a finite number > 0, got {v!r}", where=f"scene {scene.scene_id}")
     for name in ("edge_contact_mm", "edge_table_mm", "edge_junction_px", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
-                 "ridge_fallback_mm", "ridge_fallback_speed", "edge_contact_offset_k", "contact_offset_mm", "point_min_openness",
+                 "ridge_fallback_mm", "ridge_fallback_speed", "edge_contact_offset_k", "edge_shift_k", "contact_offset_mm", "point_min_openness",
                  "table_rest_lean_mm"):
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v >= 0.0):
@@ -1821,8 +1822,8 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
     if opt.edge_table_offset and not (opt.edge_table_mm > 0.0 and opt.edge_contact_offset_k > 0.0):
         raise YcbvssError("RefineOptions.edge_table_offset needs edge_table_mm > 0 and edge_contact_offset_k > 0 "
                           "(the table's contour samples share the contact-offset nuisance)", where=f"scene {scene.scene_id}")
-    if opt.edge_contact_offset_k > 0.0 and opt.edge_dilation_k > 0.0:
-        raise YcbvssError("RefineOptions.edge_contact_offset_k and edge_dilation_k cannot both be on (one "
+    if opt.edge_contact_offset_k > 0.0 and (opt.edge_dilation_k > 0.0 or opt.edge_shift_k > 0.0):
+        raise YcbvssError("RefineOptions.edge_contact_offset_k cannot be on with edge_dilation_k or edge_shift_k (one "
                           "contour nuisance per group)", where=f"scene {scene.scene_id}")
     if not isinstance(opt.edge_rim_depth, bool):
         group_specs["edge_rim_depth"] = opt.edge_rim_depth

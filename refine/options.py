@@ -276,6 +276,10 @@ class RefineOptions:
     # texture matches of long-62's small boxes read their size 0.2-0.5 % large, the contours that scene right)
     point_scale_groups: str = "medium"
     supersample_groups: str = "medium,wide"
+    # > 0: a shared 2-D image shift of each (view, object)'s contour samples is marginalised out of
+    # f_edge at the finest level, its prior worth this many samples (refine.terms.EdgeTerm.shift_k;
+    # with edge_dilation_k both). Not with edge_contact_offset_k
+    edge_shift_k: float = 0.0
     edge_dilation_k: float = 0.0      # > 0: a shared outward offset of each (view, object)'s contour samples is marginalised out of f_edge, its prior worth this many samples (refine.terms.EdgeTerm)
     # > 0: interior texture (Canny) edge samples only where the rendered normals turn less than this
     # within 2 px (refine.interior_edges: on rounded edges a scanned texture's baked shading and the

@@ -269,6 +269,9 @@ def test_the_contact_offset_and_the_dilation_nuisance_cannot_both_be_on():
     with pytest.raises(YcbvssError, match="edge_contact_offset_k"):
         refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {},
                      RefineOptions(edge_contact_offset_k=1.0, edge_dilation_k=5.0))
+    with pytest.raises(YcbvssError, match="one contour nuisance per group"):
+        refine_scene(SimpleNamespace(scene_id=7, frames=[]), {}, {},
+                     RefineOptions(edge_contact_offset_k=1.0, edge_shift_k=3.0))
 
 
 @pytest.mark.parametrize("name", ["edge_contact_offset_k", "contact_offset_mm"])
