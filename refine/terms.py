@@ -153,10 +153,9 @@ class EdgeTerm:
             A = self._surrogate(grad, H, 1.0)
             m = max(int(np.count_nonzero(np.any(M != 0.0, axis=(1, 2)))), 1)
             C = np.einsum("nia,nij,njb->ab", M, A, M) / m          # mean per-sample curvature of the nuisance
-            ks = ([self.dilation_k] if self.dilation_k > 0.0 else []) + ([self.shift_k] * 2 if self.shift_k > 0.0 else [])
             prior = np.zeros_like(C)
-            if self.dilation_k > 0.0:
-                prior[0, 0] = ks[0] * C[0, 0]
+            if self.dilation_k > 0.0:                                # the first column (see _basis)
+                prior[0, 0] = self.dilation_k * C[0, 0]
             if self.shift_k > 0.0:
                 prior[-2:, -2:] = self.shift_k * C[-2:, -2:]
             self._priors[gi] = prior
@@ -307,8 +306,7 @@ class EdgeTerm:
         (Cholesky) that is the sum over the columns l of L of rank-one terms, written as pseudo-points
         (two rows each) whose Jacobian rows are (U l)^T, pixel Hessian -1 and gradient -l . g_t (the
         total stays positive semi-definite: it is the Schur complement of a PSD system)."""
-        use = np.any(M != 0.0, axis=(1, 2))
-        if not use.any():
+        if not np.any(M != 0.0):
             return []
         AM = np.einsum("nij,njb->nib", A, M)
         h = np.einsum("nia,nib->ab", M, AM) + self.weight * self._priors[gi]
