@@ -91,9 +91,9 @@ class _Stage:
         # view index -> its lighting (3, 9; refine.shading), fitted at its first use in a blur level
         # and kept for the level: the lighting is the image's, the poses move it only through which
         # pixels the fit sees (refitted every outer iteration before 2026-11-27: 9 fits per view, not 1-4)
-        self._light: dict[int, np.ndarray] = {}
-        # the same for f_point's templates when only they have the reflection basis (shading_reflection "point")
-        self._light_point: dict[int, np.ndarray] = {}
+        # (and under ("point", view index) f_point's own when only its templates have the reflection
+        # basis, shading_reflection "point")
+        self._light: dict = {}
         self._T_m_starts: list[np.ndarray] = []
         self.fold_angle = opt.fold_min_angle_deg
         self.at_finest = True            # run() sets it per blur level (interior_min_sharpness applies at the finest)
@@ -351,12 +351,12 @@ class _Stage:
             own = self._point_own_light
             lit = (True if own else self._lit.get(i, True)) if self.shading and vr.normal is not None else None
             jobs.append((i, vr, objs, (x0, y0), _view_pool().submit(
-                _view_matches_lit, vr, pb.views[i].image, box, lit, (self._light_point if own else self._light).get(i),
+                _view_matches_lit, vr, pb.views[i].image, box, lit, self._light.get(("point", i) if own else i),
                 masks, opt.flow, self.me_image(i)[y0:y1, x0:x1], opt.shading_rim_px, self._reflection_K(i, point=True))))
         for i, vr, objs, (x0, y0), job in jobs:
             found, light = job.result()
             if light is not None:
-                (self._light_point if self._point_own_light else self._light)[i] = light
+                self._light[("point", i) if self._point_own_light else i] = light
             matches = [(a + (x0, y0), b + (x0, y0)) for a, b in found]
             for j, (xs, xd) in zip(objs, matches):
                 if len(xs) == 0:
@@ -819,7 +819,6 @@ class _Stage:
             fields = {i: job.result() for i, job in jobs.items()}     # the views' fields on the view pool
             self._t("edge_field_s", time.perf_counter() - t0)
             self._light.clear()
-            self._light_point.clear()
             if li > 0 and opt.flow_prior and (opt.flow_prior_levels == "all" or self.at_finest):
                 self._flows.clear()    # f_t's flows follow the estimate: predicted again from this level's start
             if li > 0 and opt.verify_coarse:
