@@ -1,14 +1,19 @@
 """Does the scene lighting cause the refiner's rotation bias? Refine from the exact GT, cameras fixed
-at the GT, on frames of one ``ycbv21`` suite scene rendered twice by Blender: with the suite's lights
-(a sun from above plus a weak ambient world) and with an ambient world only (no directional light,
-so the unlit templates match the image's shading far better). The rest is identical: geometry,
-textures, noise, camera, objects, GT.
+at the GT, on frames of one suite scene rendered by Blender in several lightings (``--variants``):
+with the suite's lights (``suite``: a sun from above plus a weak ambient world), with an ambient
+world only (``ambient``: no directional light, so the unlit templates match the image's shading far
+better) or as pure emission (``emission``: the texture's colour, no light at all, so what is left is
+the image formation and the cost itself). The rest is identical: geometry, textures, noise, camera,
+objects, GT.
 
 Prints per object the rotation (deg; its mean axis in the model frame) and translation (mm) the
-refinement leaves from the GT, per lighting and per term set (all terms, points only, edges only).
-A bias that shrinks with the ambient render is caused by the template-vs-image shading difference.
+refinement leaves from the GT, per lighting and per term set (``--terms``: all terms, points only,
+edges only), with ``--options`` (RefineOptions overrides, JSON) for every run. A bias that shrinks
+with the ambient render is caused by the template-vs-image shading difference.
 
     python bench/bench_bias_lighting.py --dataset ../shared/data/ycbv --out /tmp/bias_light --scene 1
+    python bench/bench_bias_lighting.py --dataset ../shared/data/ycbv --out /tmp/bl66 --suite ycbv21-long3 \
+        --scene 66 --variants suite,emission --terms "points only,edges only"
 """
 from __future__ import annotations
 
