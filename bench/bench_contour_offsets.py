@@ -180,6 +180,23 @@ def main() -> None:
         print(p)
 
 
+def lit_contour_groups(a: argparse.Namespace):
+    """The chosen GT views' contour samples as the wide bundles take them (appearance predicted from
+    the lit template, blur ``a.sigma_px``), per object of each view (any number of samples): yields
+    (models, frame, ViewRender, image's edge field, label index, obj_id, uv (n, 2), outward normals (n, 2))."""
+    from ycbvss.refine.edge import edge_field
+    from ycbvss.refine.shading import lit_template
+    from ycbvss.refine.templates import view_edge_candidates
+
+    for models, sid, fr, img, vr, oids in gt_views(a):
+        fld = edge_field(img, a.sigma_px, colour=True)
+        lit = lit_template(vr.color, vr.normal, vr.instance, img)
+        c = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True, image=img, appearance_color=lit)
+        for lab0, oid in enumerate(oids):
+            sel = np.flatnonzero((c.l_c == lab0 + 1) & np.any(c.n_c != 0.0, axis=1))
+            yield models, fr, vr, fld, lab0, oid, c.uv_c[sel], c.n_c[sel]
+
+
 def shift(a: argparse.Namespace) -> None:
     """Per (view, object) with at least ``a.min_samples`` located contour samples: the offsets t_k
     (px, outward +) of the image's edge from the lit appearance prediction fitted (3-sigma trimmed
@@ -188,33 +205,25 @@ def shift(a: argparse.Namespace) -> None:
     rms of r; k = (rms r)^2 / (rms of s per axis)^2 is the prior's worth in samples."""
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.refine.contour_match import _minimum_along
-    from ycbvss.refine.edge import edge_field
-    from ycbvss.refine.shading import lit_template
-    from ycbvss.refine.templates import view_edge_candidates
 
     per: dict = {}
     names: dict = {}
-    for models, sid, fr, img, vr, oids in gt_views(a):
-        fld = edge_field(img, a.sigma_px, colour=True)
-        lit = lit_template(vr.color, vr.normal, vr.instance, img)
-        c = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True, image=img, appearance_color=lit)
-        for lab0, oid in enumerate(oids):
-            names[oid] = getattr(models[oid], "name", None) or str(oid)
-            sel = np.flatnonzero((c.l_c == lab0 + 1) & np.any(c.n_c != 0.0, axis=1))
-            if len(sel) < a.min_samples:
-                continue
-            t = _minimum_along(fld, c.uv_c[sel], c.n_c[sel], 1.5, 0.25)
-            ok = np.abs(t) < 1.5 - 0.25                       # a minimum at the window's end: no edge found
-            if ok.sum() < a.min_samples:
-                continue
-            t, n = t[ok], c.n_c[sel][ok]
-            X = np.column_stack([n, np.ones(len(t))])
-            keep = np.ones(len(t), bool)
-            for _ in range(3):
-                p = np.linalg.lstsq(X[keep], t[keep], rcond=None)[0]
-                r = t - X @ p
-                keep = np.abs(r) < 3.0 * 1.4826 * np.median(np.abs(r[keep])) + 1e-9
-            per.setdefault(oid, []).append((p[0], p[1], p[2], float(np.sqrt(np.mean(r[keep] ** 2)))))
+    for models, _, _, fld, _, oid, uv, n in lit_contour_groups(a):
+        names[oid] = getattr(models[oid], "name", None) or str(oid)
+        if len(uv) < a.min_samples:
+            continue
+        t = _minimum_along(fld, uv, n, 1.5, 0.25)
+        ok = np.abs(t) < 1.5 - 0.25                       # a minimum at the window's end: no edge found
+        if ok.sum() < a.min_samples:
+            continue
+        t, n = t[ok], n[ok]
+        X = np.column_stack([n, np.ones(len(t))])
+        keep = np.ones(len(t), bool)
+        for _ in range(3):
+            p = np.linalg.lstsq(X[keep], t[keep], rcond=None)[0]
+            r = t - X @ p
+            keep = np.abs(r) < 3.0 * 1.4826 * np.median(np.abs(r[keep])) + 1e-9
+        per.setdefault(oid, []).append((p[0], p[1], p[2], float(np.sqrt(np.mean(r[keep] ** 2)))))
 
     def stats(v: np.ndarray) -> list[float]:
         s_rms = float(np.sqrt(np.mean(v[:, 0] ** 2 + v[:, 1] ** 2)))
@@ -243,39 +252,34 @@ def contact(a: argparse.Namespace) -> None:
     the rms and the sample counts."""
     from ycbvss.eval.tables import Row, Table, write_table
     from ycbvss.refine.contour_match import _minimum_along
-    from ycbvss.refine.edge import edge_field, sample_bilinear
-    from ycbvss.refine.shading import lit_template
-    from ycbvss.refine.templates import view_edge_candidates
+    from ycbvss.refine.edge import sample_bilinear
 
     sides = ("down", "up", "sideways")
     cols = [(s_, c_) for s_ in sides for c_ in ("contact", "free")]
     acc: dict = {}
     names: dict = {}
     count = {k: 0 for k in cols}
-    for models, sid, fr, img, vr, oids in gt_views(a):
-        dep = fr.load_depth_mm().astype(np.float32)
-        fld = edge_field(img, a.sigma_px, colour=True)
-        lit = lit_template(vr.color, vr.normal, vr.instance, img)
-        c = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True, image=img, appearance_color=lit)
-        for lab0, oid in enumerate(oids):
-            names[oid] = getattr(models[oid], "name", None) or str(oid)
-            sel = np.flatnonzero((c.l_c == lab0 + 1) & np.any(c.n_c != 0.0, axis=1))
-            if len(sel) < a.min_samples:
-                continue
-            uv, n = c.uv_c[sel], c.n_c[sel]
-            t = _minimum_along(fld, uv, n, 1.5, 0.25)
-            own = np.where(vr.instance == lab0 + 1, vr.depth_mm, 0.0).astype(np.float32)[..., None]
-            d_in = sample_bilinear(own, uv - n)[0][:, 0]
-            d_out = np.median(np.stack([sample_bilinear(dep[..., None], uv + s_ * n)[0][:, 0]
-                                        for s_ in (1.5, 2.0, 2.5, 3.0)]), axis=0)
-            at = (np.abs(d_out - d_in) < a.contact) & (d_in > 0)
-            ok = np.abs(t) < 1.5 - 0.25                   # a minimum at the window's end: no edge found
-            for side, m in zip(sides, (n[:, 1] > 0.5, n[:, 1] < -0.5, np.abs(n[:, 1]) <= 0.5)):
-                for ct, mm in (("contact", at), ("free", ~at)):
-                    q = ok & m & mm
-                    count[(side, ct)] += int(q.sum())
-                    if q.sum() >= 5:
-                        acc.setdefault((oid, side, ct), []).append(float(np.median(t[q])))
+    dep_of = (None, None)                     # (frame, its depth): read once per frame
+    for models, fr, vr, fld, lab0, oid, uv, n in lit_contour_groups(a):
+        if dep_of[0] is not fr:
+            dep_of = (fr, fr.load_depth_mm().astype(np.float32))
+        dep = dep_of[1]
+        names[oid] = getattr(models[oid], "name", None) or str(oid)
+        if len(uv) < a.min_samples:
+            continue
+        t = _minimum_along(fld, uv, n, 1.5, 0.25)
+        own = np.where(vr.instance == lab0 + 1, vr.depth_mm, 0.0).astype(np.float32)[..., None]
+        d_in = sample_bilinear(own, uv - n)[0][:, 0]
+        d_out = np.median(np.stack([sample_bilinear(dep[..., None], uv + s_ * n)[0][:, 0]
+                                    for s_ in (1.5, 2.0, 2.5, 3.0)]), axis=0)
+        at = (np.abs(d_out - d_in) < a.contact) & (d_in > 0)
+        ok = np.abs(t) < 1.5 - 0.25                   # a minimum at the window's end: no edge found
+        for side, m in zip(sides, (n[:, 1] > 0.5, n[:, 1] < -0.5, np.abs(n[:, 1]) <= 0.5)):
+            for ct, mm in (("contact", at), ("free", ~at)):
+                q = ok & m & mm
+                count[(side, ct)] += int(q.sum())
+                if q.sum() >= 5:
+                    acc.setdefault((oid, side, ct), []).append(float(np.median(t[q])))
     t = Table([f"{s_} {c_} (px)" for s_, c_ in cols], label_header="object", digits=3,
               caption=f"Image edge minus the lit appearance prediction of the contour samples at the exact GT (sigma "
                       f"{a.sigma_px:g} px), by the outward normal's side in the image and by contact (the image's depth "

@@ -71,15 +71,9 @@ def fit_shading(image: np.ndarray, albedo: np.ndarray, normals: np.ndarray, mask
     n = nrm[ok] / nn[ok, None]
     B = sh9_basis(n)
     if extra is not None:
-        E = np.asarray(extra, np.float64)
-        E = E.reshape(E.shape[0] * E.shape[1], -1)[px][ok]
-        B = np.concatenate([B, E], axis=1)
+        B = np.concatenate([B, _flat_basis(extra, px)[ok]], axis=1)
     nb = B.shape[1]
-    if additive is None:
-        f = None
-    else:
-        f = np.asarray(additive, np.float64)
-        f = 255.0 * f.reshape(f.shape[0] * f.shape[1], -1)[px][ok]
+    f = None if additive is None else 255.0 * _flat_basis(additive, px)[ok]
     k = nb + (0 if f is None else f.shape[1])
     C = np.zeros((3, k))
     reg = np.full(k, ridge)
