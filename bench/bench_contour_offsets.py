@@ -197,6 +197,36 @@ def lit_contour_groups(a: argparse.Namespace):
             yield models, fr, vr, fld, lab0, oid, c.uv_c[sel], c.n_c[sel]
 
 
+def shift_fit(fld, uv: np.ndarray, n: np.ndarray, min_samples: int, half_px: float = 1.5) -> tuple | None:
+    """One (view, object)'s image-edge offsets t_k (px, outward +) from its contour samples ``uv``
+    along their outward normals ``n`` (minimum of the edge field ``fld`` within +-``half_px``) fitted
+    (3-sigma trimmed least squares, three passes) as ``t_k = n_k . s + b + r_k``: (s_u, s_v, b, rms
+    of r); None with fewer than ``min_samples`` located samples."""
+    from ycbvss.refine.contour_match import _minimum_along
+
+    if len(uv) < min_samples:
+        return None
+    t = _minimum_along(fld, uv, n, half_px, 0.25)
+    ok = np.abs(t) < half_px - 0.25                   # a minimum at the window's end: no edge found
+    if ok.sum() < min_samples:
+        return None
+    t, n = t[ok], n[ok]
+    X = np.column_stack([n, np.ones(len(t))])
+    keep = np.ones(len(t), bool)
+    for _ in range(3):
+        p = np.linalg.lstsq(X[keep], t[keep], rcond=None)[0]
+        r = t - X @ p
+        keep = np.abs(r) < 3.0 * 1.4826 * np.median(np.abs(r[keep])) + 1e-9
+    return float(p[0]), float(p[1]), float(p[2]), float(np.sqrt(np.mean(r[keep] ** 2)))
+
+
+def shift_stats(v: np.ndarray) -> list[float]:
+    """Over groups v (G, 4) of :func:`shift_fit`: [G, rms |s|, rms b, median rest, k = rest^2 / (rms |s|^2 / 2)]."""
+    s_rms = float(np.sqrt(np.mean(v[:, 0] ** 2 + v[:, 1] ** 2)))
+    scat = float(np.median(v[:, 3]))
+    return [float(len(v)), s_rms, float(np.sqrt(np.mean(v[:, 2] ** 2))), scat, scat ** 2 / max(s_rms ** 2 / 2.0, 1e-12)]
+
+
 def shift(a: argparse.Namespace) -> None:
     """Per (view, object) with at least ``a.min_samples`` located contour samples: the offsets t_k
     (px, outward +) of the image's edge from the lit appearance prediction fitted (3-sigma trimmed
@@ -204,31 +234,14 @@ def shift(a: argparse.Namespace) -> None:
     and the per-sample rest r. Per object and over all groups: the rms of |s| and of b and the median
     rms of r; k = (rms r)^2 / (rms of s per axis)^2 is the prior's worth in samples."""
     from ycbvss.eval.tables import Row, Table, write_table
-    from ycbvss.refine.contour_match import _minimum_along
 
     per: dict = {}
     names: dict = {}
     for models, _, _, fld, _, oid, uv, n in lit_contour_groups(a):
         names[oid] = getattr(models[oid], "name", None) or str(oid)
-        if len(uv) < a.min_samples:
-            continue
-        t = _minimum_along(fld, uv, n, 1.5, 0.25)
-        ok = np.abs(t) < 1.5 - 0.25                       # a minimum at the window's end: no edge found
-        if ok.sum() < a.min_samples:
-            continue
-        t, n = t[ok], n[ok]
-        X = np.column_stack([n, np.ones(len(t))])
-        keep = np.ones(len(t), bool)
-        for _ in range(3):
-            p = np.linalg.lstsq(X[keep], t[keep], rcond=None)[0]
-            r = t - X @ p
-            keep = np.abs(r) < 3.0 * 1.4826 * np.median(np.abs(r[keep])) + 1e-9
-        per.setdefault(oid, []).append((p[0], p[1], p[2], float(np.sqrt(np.mean(r[keep] ** 2)))))
-
-    def stats(v: np.ndarray) -> list[float]:
-        s_rms = float(np.sqrt(np.mean(v[:, 0] ** 2 + v[:, 1] ** 2)))
-        scat = float(np.median(v[:, 3]))
-        return [float(len(v)), s_rms, float(np.sqrt(np.mean(v[:, 2] ** 2))), scat, scat ** 2 / max(s_rms ** 2 / 2.0, 1e-12)]
+        f = shift_fit(fld, uv, n, a.min_samples)
+        if f is not None:
+            per.setdefault(oid, []).append(f)
 
     t = Table(["groups", "shift |s| rms (px)", "dilation b rms (px)", "per-sample rest (px)", "k"],
               label_header="object", digits=3,
@@ -236,10 +249,10 @@ def shift(a: argparse.Namespace) -> None:
                       f"object): a shared shift s, a dilation b and the per-sample rest; k = rest^2 / (|s| rms^2 / 2); "
                       f"{a.suite} scenes {a.scenes}, frame positions {a.frames}")
     for o, v in sorted(per.items()):
-        t.rows.append(Row(names[o], stats(np.array(v))))
+        t.rows.append(Row(names[o], shift_stats(np.array(v))))
     allv = np.array([x for v in per.values() for x in v])
-    t.rows.append(Row("all", stats(allv), rule_before=True))
-    print("all: groups {:.0f}, |s| rms {:.3f} px, b rms {:.3f} px, rest {:.3f} px, k {:.2f}".format(*stats(allv)))
+    t.rows.append(Row("all", shift_stats(allv), rule_before=True))
+    print("all: groups {:.0f}, |s| rms {:.3f} px, b rms {:.3f} px, rest {:.3f} px, k {:.2f}".format(*shift_stats(allv)))
     for p in write_table(t, Path(a.out), "contour_shift"):
         print(p)
 

@@ -193,7 +193,8 @@ def _peak_offset(profile: np.ndarray, t: np.ndarray, sigma_px: float, half_px: f
 
 def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, colour_tmpl: np.ndarray,
                        image: np.ndarray, sigma_px: float, colour_edges: bool = True,
-                       step_px: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
+                       step_px: float = 0.25, outside_from_image_px: float | None = None,
+                       inside_from_image_px: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Offsets t (N,) px along the outward normals n (N, 2) of the image edge predicted from appearance,
     relative to where a flat-coloured silhouette shows it, at the contour samples uv (N, 2)
     (geometric boundary points, px) of the silhouettes ``inst == labels``.
@@ -204,7 +205,14 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
     colour 2.5-3.5 px beyond the contour (its median). The profile is integrated over one pixel
     (anti-aliasing), encoded to sRGB, blurred by ``sigma_px`` and differentiated as the edge field
     is; the offset is its gradient peak minus that of a flat step through the same pipeline
-    without encoding. Samples of silhouettes smaller than 20 px get 0. Returns (t, n)."""
+    without encoding. Samples of silhouettes smaller than 20 px get 0. Returns (t, n).
+
+    Two probes of where the image departs from that model (``bench/bench_contour_rim_source.py``;
+    the refiner uses neither): ``outside_from_image_px`` d: the outside is the image's own profile
+    along the normal from d px out (held at its value at d nearer), not one flat colour;
+    ``inside_from_image_px`` d: the inside is the image's own profile from d px in, the template
+    (scaled to meet it at d) nearer. The second reads the image where the object's own edge lies
+    once d is about a pixel, so the prediction then follows the image rather than the pose."""
     from scipy.ndimage import distance_transform_edt
 
     uv = np.asarray(uv, dtype=np.float64)
@@ -251,13 +259,37 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
         n = _outward_normals(m.astype(np.float32) * 255.0, sig, p)
         P_in = p[:, None, :] + t[None, inside_t, None] * n[:, None, :]
         a = sample_bilinear(filled, P_in.reshape(-1, 2))[0].reshape(len(p), int(inside_t.sum()), -1)
-        P_out = p[:, None, :] + outside_t[None, :, None] * n[:, None, :]
-        b = np.median(sample_bilinear(im.astype(np.float32), P_out.reshape(-1, 2))[0]
-                      .reshape(len(p), len(outside_t), -1), axis=1)
-        prof = np.concatenate([a, np.repeat(b[:, None, :], int((~inside_t).sum()), axis=1)], axis=1)
+        if inside_from_image_px is not None:
+            a = _image_inside(a, im, p, n, t[inside_t], float(inside_from_image_px))
+        if outside_from_image_px is None:
+            P_out = p[:, None, :] + outside_t[None, :, None] * n[:, None, :]
+            b = np.median(sample_bilinear(im.astype(np.float32), P_out.reshape(-1, 2))[0]
+                          .reshape(len(p), len(outside_t), -1), axis=1)
+            bo = np.repeat(b[:, None, :], int((~inside_t).sum()), axis=1)
+        else:
+            tout = np.maximum(t[~inside_t], float(outside_from_image_px))
+            bo = _along(im, p, n, tout)
+        prof = np.concatenate([a, bo], axis=1)
         prof = linear_to_srgb(convolve1d(prof, box, axis=1, mode="nearest"))
         off = _peak_offset(prof, t, sig, half) - ref
         ok = np.any(n != 0.0, axis=1) & np.all(np.isfinite(prof.reshape(len(p), -1)), axis=1)
         out[sel[ok]] = off[ok]
         normals[sel] = n
     return out, normals
+
+
+def _along(im: np.ndarray, p: np.ndarray, n: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The image ``im`` (h, w, C) sampled bilinearly at p + t n: (N, len(t), C)."""
+    P = p[:, None, :] + t[None, :, None] * n[:, None, :]
+    return sample_bilinear(im.astype(np.float32), P.reshape(-1, 2))[0].reshape(len(p), len(t), -1)
+
+
+def _image_inside(a: np.ndarray, im: np.ndarray, p: np.ndarray, n: np.ndarray, t_in: np.ndarray,
+                  d_px: float) -> np.ndarray:
+    """``inside_from_image_px`` of :func:`appearance_offsets`: the inside profiles ``a`` (N, K, C) at
+    t_in (K,) (< 0) replaced by the image's from ``d_px`` in, the template's nearer scaled per
+    channel to meet the image at -d_px."""
+    ai = _along(im, p, n, np.minimum(t_in, -d_px))
+    k = int(np.argmin(np.abs(t_in + d_px)))
+    scale = np.clip(ai[:, k:k + 1] / np.maximum(a[:, k:k + 1], 1e-4), 0.2, 5.0)
+    return np.where((t_in <= -d_px)[None, :, None], ai, a * scale)

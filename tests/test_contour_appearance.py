@@ -29,10 +29,17 @@ def _albedo_lin(r: np.ndarray, radius_px: float, inside_srgb, rim_px: float, rim
     return k[..., None] * base
 
 
-def _scene(radius_px, cx, cy, inside, background, rim_px, rim_factor, size=110):
+def _scene(radius_px, cx, cy, inside, background, rim_px, rim_factor, size=110, shadow=None):
+    """``shadow`` (width px, factor): the background darkened by the factor within that width outside the
+    rim, fading linearly to none at twice the width (a cast shadow's penumbra beside the object)."""
     yy, xx = (np.mgrid[0:size * SS, 0:size * SS] + 0.5) / SS - 0.5
     r = np.hypot(xx - cx, yy - cy)
     bg = srgb_to_linear(np.array(background, np.uint8)).astype(np.float64)
+    bg = np.broadcast_to(bg, r.shape + (3,))
+    if shadow is not None:
+        w, f = shadow
+        k = 1.0 - (1.0 - f) * np.clip(2.0 - (r - radius_px) / w, 0.0, 1.0)
+        bg = bg * k[..., None]
     lin = np.where((r < radius_px)[..., None], _albedo_lin(r, radius_px, inside, rim_px, rim_factor), bg)
     lin = lin.reshape(size, SS, size, SS, 3).mean(axis=(1, 3))
     image = np.clip(np.rint(_encode(lin)), 0, 255).astype(np.uint8)
@@ -102,3 +109,43 @@ def test_small_silhouettes_get_no_offset():
     img = np.full((40, 40, 3), 200, np.uint8)
     off, _ = appearance_offsets(uv, np.ones(len(uv), int), inst, img, img, 1.0)
     assert np.all(off == 0.0)
+
+
+def _shift_fit(image, inst, tmpl, centre, **kw):
+    """Image edge offsets from the appearance prediction (px, along the radius through ``centre``, the
+    image's disc centre) at the template's contour samples fitted as n . s + b: (s_x, s_y, b)."""
+    uv, _ = contour_points(inst, inst * 1000.0, 1)
+    labels = np.ones(len(uv), int)
+    uvm = match_contour_to_blur(uv, labels, inst, 1.0)
+    off, n = appearance_offsets(uv, labels, inst, tmpl, image, 1.0, **kw)
+    at = uvm + off[:, None] * n
+    t = _image_offsets(image, at, centre, 1.0)
+    rad = (at - centre) / np.linalg.norm(at - centre, axis=1, keepdims=True)
+    return np.linalg.lstsq(np.column_stack([rad, np.ones(len(t))]), t, rcond=None)[0]
+
+
+def test_the_outside_image_profile_sees_a_shadow_beside_the_contour():
+    """A penumbra just outside the rim moves the image's edge; the flat outside colour (the median
+    2.5-3.5 px out) misses it, the image's own profile (``outside_from_image_px``) does not."""
+    inside, background = (200, 170, 120), (150, 120, 90)
+    image, inst, tmpl = _scene(30.0, 55.3, 55.6, inside, background, 0.0, 1.0, shadow=(1.5, 0.35))
+    flat = _shift_fit(image, inst, tmpl, np.array([55.3, 55.6]))
+    prof = _shift_fit(image, inst, tmpl, np.array([55.3, 55.6]), outside_from_image_px=1.0)
+    # measured: the flat prediction leaves the edge 0.22 px inside (dilation b), the profile 0.10 px
+    assert flat[2] < -0.15, flat
+    assert abs(prof[2]) < 0.6 * abs(flat[2]), (flat, prof)
+
+
+def test_the_inside_image_profile_follows_the_image_not_the_pose():
+    """With the template 0.5 px off along x the prediction should leave the image's edge 0.5 px off;
+    read from the image 1 px inside (``inside_from_image_px``) it absorbs part of that: the probe
+    measures the image's rim, it is no model of the pose."""
+    inside, background = (200, 40, 40), (90, 65, 40)
+    c_img, c_tmpl = np.array([55.3, 55.6]), np.array([55.8, 55.6])
+    image, _, _ = _scene(30.0, *c_img, inside, background, 1.5, 0.55)
+    _, inst, tmpl = _scene(30.0, *c_tmpl, inside, background, 1.5, 0.55)
+    lit = _shift_fit(image, inst, tmpl, c_img)
+    probe = _shift_fit(image, inst, tmpl, c_img, outside_from_image_px=1.0, inside_from_image_px=1.0)
+    # measured: s_x -0.48 px with the model, -0.15 with the image read 1 px inside (-0.27 from 1.5 px)
+    assert abs(lit[0] + 0.5) < 0.06, lit
+    assert abs(probe[0]) < 0.5 * abs(lit[0]), (lit, probe)
