@@ -237,11 +237,29 @@ def shift(a: argparse.Namespace) -> None:
 
     per: dict = {}
     names: dict = {}
-    for models, _, _, fld, _, oid, uv, n in lit_contour_groups(a):
+    views: dict = {}         # (scene, im_id) -> the shifts of its objects
+    for models, fr, _, fld, _, oid, uv, n in lit_contour_groups(a):
         names[oid] = getattr(models[oid], "name", None) or str(oid)
         f = shift_fit(fld, uv, n, a.min_samples)
         if f is not None:
             per.setdefault(oid, []).append(f)
+            views.setdefault((getattr(fr, "scene_id", None), fr.im_id), []).append(f[:2])
+    # per view or per object? the mean shift of a view's objects (what a camera error would make)
+    # against its objects' own about it, over views with at least 3 objects
+    vm = [np.mean(v, axis=0) for v in views.values() if len(v) >= 3]
+    dv = [np.asarray(v) - np.mean(v, axis=0) for v in views.values() if len(v) >= 3]
+    if vm:
+        print("views with >= 3 objects: {}; rms of the view-mean shift (u, v) {:.3f} / {:.3f} px, of the objects' "
+              "shifts about it {:.3f} / {:.3f} px".format(len(vm), *np.sqrt(np.mean(np.square(vm), axis=0)),
+                                                          *np.sqrt(np.mean(np.square(np.concatenate(dv)), axis=0))))
+    # does an object keep its shift from view to view? its mean over the views (what its pose absorbs)
+    # against the views' shifts about that mean, over objects seen in at least 3 views
+    om = [np.mean(np.asarray(v)[:, :2], axis=0) for v in per.values() if len(v) >= 3]
+    do = [np.asarray(v)[:, :2] - np.mean(np.asarray(v)[:, :2], axis=0) for v in per.values() if len(v) >= 3]
+    if om:
+        print("objects in >= 3 views: {}; rms of an object's mean shift over its views (u, v) {:.3f} / {:.3f} px, of "
+              "its views' shifts about it {:.3f} / {:.3f} px".format(len(om), *np.sqrt(np.mean(np.square(om), axis=0)),
+                                                                  *np.sqrt(np.mean(np.square(np.concatenate(do)), axis=0))))
 
     t = Table(["groups", "shift |s| rms (px)", "dilation b rms (px)", "per-sample rest (px)", "k"],
               label_header="object", digits=3,
