@@ -262,13 +262,10 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
         if inside_from_image_px is not None:
             a = _image_inside(a, im, p, n, t[inside_t], float(inside_from_image_px))
         if outside_from_image_px is None:
-            P_out = p[:, None, :] + outside_t[None, :, None] * n[:, None, :]
-            b = np.median(sample_bilinear(im.astype(np.float32), P_out.reshape(-1, 2))[0]
-                          .reshape(len(p), len(outside_t), -1), axis=1)
+            b = np.median(_along(im, p, n, outside_t), axis=1)
             bo = np.repeat(b[:, None, :], int((~inside_t).sum()), axis=1)
         else:
-            tout = np.maximum(t[~inside_t], float(outside_from_image_px))
-            bo = _along(im, p, n, tout)
+            bo = _along(im, p, n, np.maximum(t[~inside_t], float(outside_from_image_px)))
         prof = np.concatenate([a, bo], axis=1)
         prof = linear_to_srgb(convolve1d(prof, box, axis=1, mode="nearest"))
         off = _peak_offset(prof, t, sig, half) - ref
