@@ -227,6 +227,17 @@ def shift_stats(v: np.ndarray) -> list[float]:
     return [float(len(v)), s_rms, float(np.sqrt(np.mean(v[:, 2] ** 2))), scat, scat ** 2 / max(s_rms ** 2 / 2.0, 1e-12)]
 
 
+def mean_and_scatter(groups: list[np.ndarray], min_n: int = 3) -> tuple[int, np.ndarray, np.ndarray]:
+    """Over the groups (each (n, 2) shifts, px) with at least ``min_n`` members: (their number, the
+    rms over groups of a group's mean (2,), the rms of the members about their group's mean (2,))."""
+    gs = [g for g in groups if len(g) >= min_n]
+    if not gs:
+        return 0, np.zeros(2), np.zeros(2)
+    means = np.array([g.mean(axis=0) for g in gs])
+    about = np.concatenate([g - g.mean(axis=0) for g in gs])
+    return len(gs), np.sqrt(np.mean(means ** 2, axis=0)), np.sqrt(np.mean(about ** 2, axis=0))
+
+
 def shift(a: argparse.Namespace) -> None:
     """Per (view, object) with at least ``a.min_samples`` located contour samples: the offsets t_k
     (px, outward +) of the image's edge from the lit appearance prediction fitted (3-sigma trimmed
@@ -243,23 +254,15 @@ def shift(a: argparse.Namespace) -> None:
         f = shift_fit(fld, uv, n, a.min_samples)
         if f is not None:
             per.setdefault(oid, []).append(f)
-            views.setdefault((getattr(fr, "scene_id", None), fr.im_id), []).append(f[:2])
+            views.setdefault((fr.scene_id, fr.im_id), []).append(f[:2])
     # per view or per object? the mean shift of a view's objects (what a camera error would make)
-    # against its objects' own about it, over views with at least 3 objects
-    vm = [np.mean(v, axis=0) for v in views.values() if len(v) >= 3]
-    dv = [np.asarray(v) - np.mean(v, axis=0) for v in views.values() if len(v) >= 3]
-    if vm:
-        print("views with >= 3 objects: {}; rms of the view-mean shift (u, v) {:.3f} / {:.3f} px, of the objects' "
-              "shifts about it {:.3f} / {:.3f} px".format(len(vm), *np.sqrt(np.mean(np.square(vm), axis=0)),
-                                                          *np.sqrt(np.mean(np.square(np.concatenate(dv)), axis=0))))
-    # does an object keep its shift from view to view? its mean over the views (what its pose absorbs)
-    # against the views' shifts about that mean, over objects seen in at least 3 views
-    om = [np.mean(np.asarray(v)[:, :2], axis=0) for v in per.values() if len(v) >= 3]
-    do = [np.asarray(v)[:, :2] - np.mean(np.asarray(v)[:, :2], axis=0) for v in per.values() if len(v) >= 3]
-    if om:
-        print("objects in >= 3 views: {}; rms of an object's mean shift over its views (u, v) {:.3f} / {:.3f} px, of "
-              "its views' shifts about it {:.3f} / {:.3f} px".format(len(om), *np.sqrt(np.mean(np.square(om), axis=0)),
-                                                                  *np.sqrt(np.mean(np.square(np.concatenate(do)), axis=0))))
+    # against its objects' own about it; and does an object keep its shift from view to view (its mean
+    # over the views is what its pose absorbs) against its views' shifts about that mean
+    for what, groups in (("views with >= 3 objects", views.values()), ("objects in >= 3 views", per.values())):
+        n, mean_rms, about_rms = mean_and_scatter([np.asarray(v)[:, :2] for v in groups])
+        if n:
+            print("{}: {}; rms of the mean shift (u, v) {:.3f} / {:.3f} px, of the shifts about it {:.3f} / {:.3f} px"
+                  .format(what, n, *mean_rms, *about_rms))
 
     t = Table(["groups", "shift |s| rms (px)", "dilation b rms (px)", "per-sample rest (px)", "k"],
               label_header="object", digits=3,

@@ -119,10 +119,10 @@ def groups(a: argparse.Namespace, d_px: float, vs: list[tuple[str, str, dict]]):
                 off, n = appearance_offsets(geo, lab, vr.instance, colours[lt], img, sig, **kw)
                 uv = matched + off[:, None] * n
                 preds.append((uv, contour_normals(uv, lab, vr.instance, sig)))
+            has_n = [np.any(n != 0.0, axis=1) for _, n in preds]
             for lab0, oid in enumerate(oids):
-                sel = lab == lab0 + 1
-                yield oid, [shift_fit(fld, uv[sel & np.any(n != 0.0, axis=1)], n[sel & np.any(n != 0.0, axis=1)],
-                                      a.min_samples, 1.5 + abs(d_px)) for uv, n in preds]
+                sel = [(lab == lab0 + 1) & h for h in has_n]
+                yield oid, [shift_fit(fld, uv[s], n[s], a.min_samples, 1.5 + abs(d_px)) for (uv, n), s in zip(preds, sel)]
 
 
 def main() -> None:
