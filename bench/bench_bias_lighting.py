@@ -6,9 +6,9 @@ better) or as pure emission (``emission``: the texture's colour, no light at all
 the image formation and the cost itself). The rest is identical: geometry, textures, noise, camera,
 objects, GT. ``emission_point`` / ``suite_point``: Cycles sampling the pixel centres only (pixel filter
 0.01 px, many samples, no denoiser), the image formed as the fast renderer forms its templates.
-Controls, not evidence (the inverse crime on purpose): ``fast``, ``fast_clean``, ``fast_flat`` render
-the frames with the refiner's own fast renderer (shaded with noise, shaded without, the texture's
-colour only without noise); what the refinement leaves there belongs to the cost, not to Blender.
+Controls, not evidence (the inverse crime on purpose): ``fast``, ``fast_clean``, ``fast_flat``, ``fast_area``
+render the frames with the refiner's own fast renderer (shaded with noise, shaded without, the
+texture's colour only without noise, the same integrated over each pixel: ``bench_inverse_crime.py``); what the refinement leaves there belongs to the cost, not to Blender.
 
 Prints per object the rotation (deg; its mean axis in the model frame) and translation (mm) the
 refinement leaves from the GT, per lighting and per term set (``--terms``: all terms, points only,
@@ -48,7 +48,9 @@ VARIANTS = {"suite": ("sun + ambient (suite)", {}),
             "fast": ("the refiner's own fast renderer (control)", {"fast": True, "noise_sigma": 1.5}),
             "fast_clean": ("the refiner's own fast renderer, no noise (control)", {"fast": True, "noise_sigma": 0.0}),
             "fast_flat": ("the refiner's own fast renderer, no noise, no shading: the texture's colour (control)",
-                          {"fast": True, "noise_sigma": 0.0, "ambient": 1.0, "diffuse": 0.0})}
+                          {"fast": True, "noise_sigma": 0.0, "ambient": 1.0, "diffuse": 0.0}),
+            "fast_area": ("the refiner's own fast renderer, the texture's colour integrated over each pixel (4 x 4, "
+                          "linear light; control)", {"fast": "area"})}
 
 
 def render_variant(spec, models: dict, root: Path, frames: list[int], light: dict) -> Path:
@@ -68,8 +70,11 @@ def render_variant(spec, models: dict, root: Path, frames: list[int], light: dic
     gl = Renderer()
     writer = BopSceneWriter(root / "test", spec.scene_id)
     by_id = {f.im_id: f for f in sc.frames}
-    if light.get("fast"):
-        from ycbvss.procedural.render import render_frame_fast
+    from ycbvss.procedural.render import render_frame_fast
+    if light.get("fast") == "area":
+        from bench_inverse_crime import render_control
+        frames_out = ((f.im_id, render_control(sc, f, gl, "area", 4), render_frame_fast(sc, f, gl)[1]) for f in sc.frames)
+    elif light.get("fast"):
         rng = np.random.default_rng(spec.seed + 7)
         frames_out = ((f.im_id, *render_frame_fast(sc, f, gl, noise_sigma=light["noise_sigma"], rng=rng,
                                                               ambient=light.get("ambient", 0.35), diffuse=light.get("diffuse", 0.75))[:2]) for f in sc.frames)

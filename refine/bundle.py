@@ -33,7 +33,7 @@ from .solver import SolverOptions, covariance, run_lm
 from .shading import lit_template, reflection_basis, view_lighting
 from .threads import single_threaded_kernels, view_pool as _view_pool
 from .evidence import _TurnFit, _quality_on_views, _turn_gains, _view_contour_offsets
-from .templates import (EdgeCandidates, ViewRender, area_template, composite, ensure_meshes, get_renderer,
+from .templates import (EdgeCandidates, ViewRender, area_template, composite, ensure_meshes, get_renderer, texture_mode,
                         render_view, select_edge_samples, view_edge_candidates, with_area)
 from .table import (TOUCH_MM, TableRotation, TableRotationTerm, predicted_homography, span_pairs, support_plane, table_matches,
                     table_rotation, whitening)
@@ -1750,6 +1750,15 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
 
 def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None = None,
                  images: dict | None = None) -> RefineResult:
+    """Bundle pose refinement of one static scene (:func:`_refine_scene`), its templates rendered in
+    the texture mode of ``RefineOptions.template_srgb_textures``."""
+    opt = options or RefineOptions()
+    with texture_mode(opt.template_srgb_textures):
+        return _refine_scene(scene, models, init, opt, images)
+
+
+def _refine_scene(scene, models: dict, init: dict, options: RefineOptions | None = None,
+                  images: dict | None = None) -> RefineResult:
     """Bundle pose refinement of one static scene.
 
     ``scene``: :class:`ycbvss.scene.Scene` (frames with cameras); ``models``: obj_id -> ObjectModel;
@@ -1835,6 +1844,9 @@ def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None 
             _groups(spec)
         except ValueError as e:
             raise YcbvssError(f"RefineOptions.{name}: {e}", where=f"scene {scene.scene_id}") from None
+    if not isinstance(opt.template_srgb_textures, bool):
+        raise YcbvssError(f"RefineOptions.template_srgb_textures must be True or False, got {opt.template_srgb_textures!r}",
+                          where=f"scene {scene.scene_id}")
     if opt.interior_turn_objects not in ("all", "textureless"):
         raise YcbvssError(f"RefineOptions.interior_turn_objects must be 'all' or 'textureless', got "
                           f"{opt.interior_turn_objects!r}", where=f"scene {scene.scene_id}")

@@ -241,6 +241,13 @@ class RefineOptions:
     # `uncertain`): object means 0.26/0.32/1.38/0.80/0.40 -> 0.33/0.34/1.30/0.88/0.48. Cost: the
     # colour rendered again at f x f within the objects' box, only in the iterations that match anew
     template_supersample: int = 2
+    # True: the refiner's templates are rendered with textures filtered and mip-averaged in linear
+    # light (refine.templates.texture_mode; ycbvss.render.Renderer srgb_textures), as a camera and
+    # Cycles integrate light; False (default): on the sRGB-encoded values, which darkens a contrasted
+    # texture where it is minified (towards a silhouette). Measured and left off (session 88, bench/results/
+    # ycbv21 README "session 88"): from the exact GT on long 1-3 R 0.107 -> 0.089 deg (pudding box
+    # 0.174 -> 0.026) but tz 0.166 -> 0.271 mm (the scene scale moves, by scene either way)
+    template_srgb_textures: bool = False
     # > 0: f_point's flow matches only on model surface that sees at least this share of the sky
     # (refine.openness: cosine-weighted hemisphere, 1 on a convex surface; 0.5, half the sky, not
     # tuned), on the scenes whose keyframe baseline group is in ``point_openness_groups``. The

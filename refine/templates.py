@@ -3,9 +3,11 @@ the samples taken from them: edge points (exterior contour + interior Canny) and
 both lifted to 3D through the rendered depth."""
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import cv2
+
 import numpy as np
 
 from ..geometry.se3 import inv_T
@@ -17,15 +19,29 @@ from .jacobians import backproject_px
 from .srgb import encode_u8
 from .srgb import tables as srgb_tables
 
-_RENDERER = None
+_RENDERERS: dict[bool, Renderer] = {}
+_SRGB_TEXTURES = [False]          # the mode get_renderer() serves (set by texture_mode)
 
 
 def get_renderer():
-    """One fast renderer per process (moderngl EGL context)."""
-    global _RENDERER
-    if _RENDERER is None:
-        _RENDERER = Renderer()
-    return _RENDERER
+    """One fast renderer per process (moderngl EGL context) and texture mode (:func:`texture_mode`)."""
+    srgb = _SRGB_TEXTURES[0]
+    if srgb not in _RENDERERS:
+        _RENDERERS[srgb] = Renderer(srgb_textures=srgb)
+    return _RENDERERS[srgb]
+
+
+@contextmanager
+def texture_mode(srgb_textures: bool):
+    """Within this block :func:`get_renderer` serves the renderer whose textures are filtered in
+    linear light (``srgb_textures``, :class:`ycbvss.render.Renderer`), or on their sRGB-encoded
+    values (False, the default). ``RefineOptions.template_srgb_textures`` sets it for one refinement."""
+    before = _SRGB_TEXTURES[0]
+    _SRGB_TEXTURES[0] = bool(srgb_textures)
+    try:
+        yield
+    finally:
+        _SRGB_TEXTURES[0] = before
 
 
 def mesh_key(obj_id: int, model) -> tuple:

@@ -222,6 +222,34 @@ def test_texture_vertex_colour_and_grey():
     r.release()
 
 
+def test_srgb_textures_average_a_minified_texture_in_linear_light():
+    """A black and white 1-texel checker seen far away (minified about 8x): filtered on its sRGB
+    values it reads mid grey 128; as an sRGB texture, averaged in linear light as a camera does, it
+    reads the encoding of 0.5, 188. Vertex colours and untextured meshes keep their colour."""
+    from PIL import Image
+
+    img = ((np.indices((256, 256)).sum(axis=0) % 2) * 255).astype(np.uint8)
+    img = np.repeat(img[..., None], 3, axis=2)
+    V = np.array([[-100, -100, 0], [100, -100, 0], [100, 100, 0], [-100, 100, 0]], float)
+    uv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], float)
+    quad = trimesh.Trimesh(V, [[0, 1, 2], [0, 2, 3]], process=False,
+                           visual=trimesh.visual.TextureVisuals(uv=uv, image=Image.fromarray(img)))
+    box = trimesh.creation.box(extents=(50, 50, 50))
+    box.visual.vertex_colors = np.tile([10, 200, 30, 255], (len(box.vertices), 1))
+    means = {}
+    for srgb in (False, True):
+        r = Renderer(srgb_textures=srgb)
+        r.add_mesh("checker", quad)
+        r.add_mesh("vc", box)
+        out = r.render(K0, W0, H0, [("checker", pose(t=(0, 0, 3200.0)))], outputs=("color", "instance"))
+        means[srgb] = float(out.color[out.instance == 1].mean())
+        out = r.render(K0, W0, H0, [("vc", pose(t=(0, 0, 500.0)))], outputs=("color", "instance"))
+        assert np.abs(np.median(out.color[out.instance == 1], 0) - [10, 200, 30]).max() <= 1
+        r.release()
+    assert abs(means[False] - 128.0) < 4.0
+    assert abs(means[True] - 188.0) < 4.0
+
+
 def test_mesh_texture_of_ycb_and_missing_texture(ycb_mesh):
     uv, img = mesh_texture(ycb_mesh)
     assert uv.shape == (len(ycb_mesh.vertices), 2) and uv.dtype == np.float32

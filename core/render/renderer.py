@@ -141,12 +141,19 @@ def _vertex_attributes(key: Hashable, mesh_mm, n: int, texture_rgb: np.ndarray |
     return uv_gl, vcol, normals, (image if textured else None)
 
 
+_GL_SRGB8 = 0x8C41                 # GL_SRGB8: an sRGB-encoded RGB texture, decoded to linear light when sampled
+
+
 class Renderer:
     """Offscreen OpenGL renderer of (mesh, pose) lists with mutual occlusion.
 
     ``max_texture_px``: textures larger than this (longest side) are downsampled (INTER_AREA) before upload;
     YCB textures are 4096 px while objects cover a few hundred pixels, so 2048 keeps the same look with a
     quarter of the memory.  ``mipmap``: mipmapped texture sampling (no aliasing when minified).
+    ``srgb_textures``: textures are uploaded as sRGB textures, so GL filters and mip-averages them in
+    linear light, as a camera integrates light (and Cycles filters its sRGB image textures); the
+    colour output keeps its sRGB encoding. False (default): filtered on the encoded values, which
+    darkens a contrasted texture where it is minified (at grazing angles, e.g. towards a silhouette).
     ``cull_back_faces``: skip back-facing triangles (about 2x faster on llvmpipe). ``"auto"`` (default) culls
     only meshes found closed (no boundary edge once seam duplicates are merged), consistently wound and
     outward oriented, where culling cannot change the image (unless the camera is inside the object);
@@ -154,12 +161,13 @@ class Renderer:
     """
 
     def __init__(self, max_texture_px: int = 2048, mipmap: bool = True, cull_back_faces: bool | str = "auto",
-                 max_cached_framebuffers: int = 8):
+                 max_cached_framebuffers: int = 8, srgb_textures: bool = False):
         self.ctx = get_context()
         self._pid = os.getpid()
         self._max_viewport = int(min(self.ctx.info.get("GL_MAX_VIEWPORT_DIMS", (16384, 16384))))
         self.max_texture_px = int(max_texture_px)
         self.mipmap = bool(mipmap)
+        self.srgb_textures = bool(srgb_textures)
         if cull_back_faces not in (True, False, "auto"):
             raise YcbvssError(f"Renderer: cull_back_faces must be True, False or 'auto', got {cull_back_faces!r}",
                               where="ycbvss.render")
@@ -259,7 +267,8 @@ class Renderer:
         if s < 1.0:
             image = cv2.resize(image, (max(1, round(W * s)), max(1, round(H * s))), interpolation=cv2.INTER_AREA)
         H, W = image.shape[:2]
-        tex = self.ctx.texture((W, H), 3, np.ascontiguousarray(image, dtype=np.uint8).tobytes(), alignment=1)
+        tex = self.ctx.texture((W, H), 3, np.ascontiguousarray(image, dtype=np.uint8).tobytes(), alignment=1,
+                               internal_format=_GL_SRGB8 if self.srgb_textures else None)
         tex.repeat_x = tex.repeat_y = True
         if self.mipmap:
             tex.build_mipmaps()
@@ -278,7 +287,7 @@ class Renderer:
     def _program(self, with_color: bool, with_normal: bool):
         key = (with_color, with_normal)
         if key not in self._programs:
-            vs, fs = sources(with_color, with_normal)
+            vs, fs = sources(with_color, with_normal, self.srgb_textures)
             self._programs[key] = self.ctx.program(vertex_shader=vs, fragment_shader=fs)
         return self._programs[key]
 

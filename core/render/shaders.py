@@ -65,7 +65,14 @@ void main() {
     o_normal = vec4(n, 0.0);
 #endif
 #ifdef WITH_COLOR
+#ifdef SRGB_TEXTURES
+    // an sRGB texture: GL decodes each texel to linear light before filtering and mip averaging; the
+    // filtered colour is encoded back to sRGB here, so the output is in the same encoding as otherwise
+    vec3 t = texture(u_tex, v_uv).rgb;
+    vec3 c = mix(12.92 * t, 1.055 * pow(t, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), t)) * v_col;
+#else
     vec3 c = texture(u_tex, v_uv).rgb * v_col;
+#endif
     if (u_shade > 0.0) {
 #ifndef WITH_NORMAL
         vec3 n = normalize(cross(dFdx(v_p), dFdy(v_p)));
@@ -79,9 +86,10 @@ void main() {
 """
 
 
-def sources(with_color: bool, with_normal: bool) -> tuple[str, str]:
-    """(vertex, fragment) GLSL sources for the requested output variant."""
-    defs = []
+def sources(with_color: bool, with_normal: bool, srgb_textures: bool = False) -> tuple[str, str]:
+    """(vertex, fragment) GLSL sources for the requested output variant (``srgb_textures``: the
+    textures are sRGB textures, filtered in linear light; see ``Renderer``)."""
+    defs = ["#define SRGB_TEXTURES"] if srgb_textures else []
     loc = 1
     if with_color:
         defs += ["#define WITH_COLOR", f"#define LOC_COLOR {loc}"]
