@@ -247,7 +247,8 @@ class RefineOptions:
     # texture where it is minified (towards a silhouette). Measured and left off (session 88, bench/results/
     # ycbv21 README "session 88"): long 1-3 from the exact GT R 0.107 -> 0.089 deg (pudding box
     # 0.174 -> 0.026) but tz 0.166 -> 0.271 mm (each scene's scale moves, either way); from the paper's
-    # init (seed 0) 0.063/0.051/0.222/0.111/0.084 -> 0.071/0.048/0.256/0.089/0.081, 20 of 21 either way
+    # init (seed 0) 0.063/0.051/0.222/0.111/0.084 -> 0.071/0.048/0.256/0.089/0.081, 20 of 21 either way;
+    # short 1-9 (seeds 0, 1, 5) 15 -> 15 of 21; medium 1-9 (seeds 0, 1, 5) 16 -> 14 of 21
     template_srgb_textures: bool = False
     # > 0: f_point's flow matches only on model surface that sees at least this share of the sky
     # (refine.openness: cosine-weighted hemisphere, 1 on a convex surface; 0.5, half the sky, not

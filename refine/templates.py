@@ -7,7 +7,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import cv2
-
 import numpy as np
 
 from ..geometry.se3 import inv_T
