@@ -8,7 +8,8 @@ objects, GT. ``emission_point`` / ``suite_point``: Cycles sampling the pixel cen
 0.01 px, many samples, no denoiser), the image formed as the fast renderer forms its templates.
 Controls, not evidence (the inverse crime on purpose): ``fast``, ``fast_clean``, ``fast_flat``, ``fast_area``
 render the frames with the refiner's own fast renderer (shaded with noise, shaded without, the
-texture's colour only without noise, the same integrated over each pixel: ``bench_inverse_crime.py``); what the refinement leaves there belongs to the cost, not to Blender.
+texture's colour only without noise, the same integrated over each pixel: ``bench_inverse_crime.py``);
+what the refinement leaves there belongs to the cost, not to Blender.
 
 Prints per object the rotation (deg; its mean axis in the model frame) and translation (mm) the
 refinement leaves from the GT, per lighting and per term set (``--terms``: all terms, points only,
@@ -76,8 +77,9 @@ def render_variant(spec, models: dict, root: Path, frames: list[int], light: dic
         frames_out = ((f.im_id, render_control(sc, f, gl, "area", 4), render_frame_fast(sc, f, gl)[1]) for f in sc.frames)
     elif light.get("fast"):
         rng = np.random.default_rng(spec.seed + 7)
-        frames_out = ((f.im_id, *render_frame_fast(sc, f, gl, noise_sigma=light["noise_sigma"], rng=rng,
-                                                              ambient=light.get("ambient", 0.35), diffuse=light.get("diffuse", 0.75))[:2]) for f in sc.frames)
+        shade = {"ambient": light.get("ambient", 0.35), "diffuse": light.get("diffuse", 0.75)}
+        frames_out = ((f.im_id, *render_frame_fast(sc, f, gl, noise_sigma=light["noise_sigma"], rng=rng, **shade)[:2])
+                      for f in sc.frames)
     else:
         frames_out = render_blender(sc, root / "models", root / "work", **{"samples": 12, **light})
     for im_id, rgb, depth in frames_out:
