@@ -1750,15 +1750,6 @@ def _refine_keyframes(views: list, models: dict, obj_ids: list, known: np.ndarra
 
 def refine_scene(scene, models: dict, init: dict, options: RefineOptions | None = None,
                  images: dict | None = None) -> RefineResult:
-    """Bundle pose refinement of one static scene (:func:`_refine_scene`), its templates rendered in
-    the texture mode of ``RefineOptions.template_srgb_textures``."""
-    opt = options or RefineOptions()
-    with texture_mode(opt.template_srgb_textures):
-        return _refine_scene(scene, models, init, opt, images)
-
-
-def _refine_scene(scene, models: dict, init: dict, options: RefineOptions | None = None,
-                  images: dict | None = None) -> RefineResult:
     """Bundle pose refinement of one static scene.
 
     ``scene``: :class:`ycbvss.scene.Scene` (frames with cameras); ``models``: obj_id -> ObjectModel;
@@ -1773,8 +1764,16 @@ def _refine_scene(scene, models: dict, init: dict, options: RefineOptions | None
     refined poses turned that way, the others from their initial poses again. The restart is kept
     when none of those objects still has a better turned copy and each fits its interior texture
     better than before; otherwise the first result stands (those poses ``uncertain``).
-    ``stats["turn_restart"]`` records what happened."""
+    ``stats["turn_restart"]`` records what happened. The templates are rendered in the texture mode of
+    ``RefineOptions.template_srgb_textures`` (:func:`ycbvss.refine.templates.texture_mode`)."""
     opt = options or RefineOptions()
+    with texture_mode(opt.template_srgb_textures):
+        return _refine_scene(scene, models, init, opt, images)
+
+
+def _refine_scene(scene, models: dict, init: dict, opt: RefineOptions,
+                  images: dict | None = None) -> RefineResult:
+    """:func:`refine_scene` in the texture mode already set (its option checks, then the stages)."""
     if opt.object_ridge not in (False, True, "finest", "narrow", "by_baseline"):
         raise YcbvssError(f"RefineOptions.object_ridge must be False, True, 'finest', 'narrow' or 'by_baseline', got {opt.object_ridge!r}",
                           where=f"scene {scene.scene_id}")

@@ -19,15 +19,14 @@ from .srgb import encode_u8
 from .srgb import tables as srgb_tables
 
 _RENDERERS: dict[bool, Renderer] = {}
-_SRGB_TEXTURES = [False]          # the mode get_renderer() serves (set by texture_mode)
+_SRGB_TEXTURES = False            # the mode get_renderer() serves (set by texture_mode)
 
 
 def get_renderer():
     """One fast renderer per process (moderngl EGL context) and texture mode (:func:`texture_mode`)."""
-    srgb = _SRGB_TEXTURES[0]
-    if srgb not in _RENDERERS:
-        _RENDERERS[srgb] = Renderer(srgb_textures=srgb)
-    return _RENDERERS[srgb]
+    if _SRGB_TEXTURES not in _RENDERERS:
+        _RENDERERS[_SRGB_TEXTURES] = Renderer(srgb_textures=_SRGB_TEXTURES)
+    return _RENDERERS[_SRGB_TEXTURES]
 
 
 @contextmanager
@@ -35,12 +34,12 @@ def texture_mode(srgb_textures: bool):
     """Within this block :func:`get_renderer` serves the renderer whose textures are filtered in
     linear light (``srgb_textures``, :class:`ycbvss.render.Renderer`), or on their sRGB-encoded
     values (False, the default). ``RefineOptions.template_srgb_textures`` sets it for one refinement."""
-    before = _SRGB_TEXTURES[0]
-    _SRGB_TEXTURES[0] = bool(srgb_textures)
+    global _SRGB_TEXTURES
+    before, _SRGB_TEXTURES = _SRGB_TEXTURES, bool(srgb_textures)
     try:
         yield
     finally:
-        _SRGB_TEXTURES[0] = before
+        _SRGB_TEXTURES = before
 
 
 def mesh_key(obj_id: int, model) -> tuple:
