@@ -290,3 +290,58 @@ def _image_inside(a: np.ndarray, im: np.ndarray, p: np.ndarray, n: np.ndarray, t
     k = int(np.argmin(np.abs(t_in + d_px)))
     scale = np.clip(ai[:, k:k + 1] / np.maximum(a[:, k:k + 1], 1e-4), 0.2, 5.0)
     return np.where((t_in <= -d_px)[None, :, None], ai, a * scale)
+
+
+# --- the contour predicted by the image's own edge operator on a synthetic image -----------------
+#
+# appearance_offsets models one profile per sample along its normal. Session 89 measured what that
+# misses (bench/bench_contour_synthetic.py): a texture band narrower than a pixel at the rim (the
+# master chef can's dark bottom bead puts its edge 0.79 px inside the binary silhouette; the 1-D
+# model predicts 0.56-0.59 even from the exact pixel-area colour), texture edges beside the contour
+# and its curvature, all in 2-D. :func:`synthetic_contour_offsets` instead forms the image the
+# template predicts -- the template's colour mixed with the background by each pixel's coverage in
+# linear light, as a camera forms it -- and searches the minimum of the same edge field the image
+# gets (colour, blur sigma) along each sample's normal. Not used by the refiner yet.
+
+def synthetic_image(instance: np.ndarray, coverage: np.ndarray | None, colour: np.ndarray, image: np.ndarray,
+                    ring_px: float = 2.5) -> np.ndarray:
+    """The image (H, W, 3) uint8 sRGB a template predicts: each pixel's ``colour`` (H, W, 3 uint8 sRGB,
+    the objects' colour wherever ``coverage`` > 0) mixed in linear light by its ``coverage`` (H, W)
+    in [0, 1] (None: the binary ``instance`` > 0) with the background. The background is ``image``
+    (H, W, 3 uint8) farther than ``ring_px`` px from every silhouette of ``instance`` and, nearer,
+    the nearest such pixel's colour: the image's own pixels beside the silhouette hold the object's
+    blurred edge whenever the pose is off, so the prediction would follow the image, not the pose."""
+    from scipy.ndimage import distance_transform_edt
+
+    inside = np.asarray(instance) > 0
+    cov = inside.astype(np.float32) if coverage is None else np.clip(np.asarray(coverage, np.float32), 0.0, 1.0)
+    far = distance_transform_edt(~inside) > ring_px
+    lin_img = srgb_to_linear(image)
+    if far.any():
+        _, (iy, ix) = distance_transform_edt(~far, return_indices=True)
+        bg = lin_img[iy, ix]
+    else:
+        bg = np.broadcast_to(np.median(lin_img.reshape(-1, lin_img.shape[-1]), axis=0), lin_img.shape)
+    lin = cov[..., None] * srgb_to_linear(colour) + (1.0 - cov[..., None]) * bg
+    return np.clip(np.rint(linear_to_srgb(lin)), 0, 255).astype(np.uint8)
+
+
+def synthetic_contour_offsets(uv: np.ndarray, n: np.ndarray, synthetic: np.ndarray, sigma_px: float,
+                              half_px: float = 1.5, step_px: float = 0.25) -> np.ndarray:
+    """Offsets t (N,) px along the unit normals n (N, 2) from the contour samples uv (N, 2) (px) to
+    the minimum of the edge field of ``synthetic`` (:func:`synthetic_image`; the image's operator:
+    colour gradient after a Gaussian blur of ``sigma_px``), within +-``half_px``; NaN where the
+    minimum lies at the window's end (no edge found)."""
+    from .edge import edge_field
+
+    uv = np.asarray(uv, np.float64).reshape(-1, 2)
+    out = np.full(len(uv), np.nan)
+    if len(uv) == 0:
+        return out
+    margin = int(np.ceil(3.0 * max(sigma_px, 1.0) + half_px)) + 3
+    y0, x0, y1, x1 = _crop_box(uv, synthetic.shape[:2], margin)
+    fld = edge_field(np.ascontiguousarray(synthetic[y0:y1, x0:x1]), sigma_px, colour=True)
+    t = _minimum_along(fld, uv - (x0, y0), np.asarray(n, np.float64), half_px, step_px)
+    ok = np.abs(t) < half_px - step_px
+    out[ok] = t[ok]
+    return out
