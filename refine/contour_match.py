@@ -296,7 +296,7 @@ def _image_inside(a: np.ndarray, im: np.ndarray, p: np.ndarray, n: np.ndarray, t
 #
 # appearance_offsets models one profile per sample along its normal. Session 89 measured what that
 # misses (bench/bench_contour_synthetic.py): a texture band narrower than a pixel at the rim (the
-# master chef can's dark bottom bead puts its edge 0.79 px inside the binary silhouette; the 1-D
+# master chef can's dark bottom rim puts its edge 0.79 px inside the binary silhouette; the 1-D
 # model predicts 0.56-0.59 even from the exact pixel-area colour), texture edges beside the contour
 # and its curvature, all in 2-D. :func:`synthetic_contour_offsets` instead forms the image the
 # template predicts -- the template's colour mixed with the background by each pixel's coverage in
