@@ -38,7 +38,8 @@ def area_lit_colour(vr, lit: np.ndarray) -> np.ndarray:
     linear light)."""
     from scipy.ndimage import distance_transform_edt
 
-    from ycbvss.refine.edge import linear_to_srgb, srgb_to_linear
+    from ycbvss.refine.edge import srgb_to_linear
+    from ycbvss.refine.srgb import encode_u8
 
     inside = vr.instance > 0
     out = np.array(lit, copy=True)
@@ -48,7 +49,7 @@ def area_lit_colour(vr, lit: np.ndarray) -> np.ndarray:
     ratio = srgb_to_linear(lit) / np.maximum(srgb_to_linear(np.where(inside[..., None], vr.area_color, vr.color)), 1.0)
     _, (iy, ix) = distance_transform_edt(~inside, return_indices=True)
     lin = srgb_to_linear(vr.area_color)[part] * ratio[iy, ix][part]
-    out[part] = np.clip(np.rint(linear_to_srgb(lin)), 0, 255).astype(np.uint8)
+    out[part] = encode_u8(lin)
     return out
 
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from .cubic_kernel import minimum_along
 from .edge import EdgeField, gradient_magnitude, linear_to_srgb, sample_bilinear, sample_E, srgb_to_linear
+from .srgb import encode_u8
 
 
 def search_px(sigma_px: float) -> tuple[float, float]:
@@ -323,7 +324,7 @@ def synthetic_image(instance: np.ndarray, coverage: np.ndarray | None, colour: n
     else:
         bg = np.broadcast_to(np.median(lin_img.reshape(-1, lin_img.shape[-1]), axis=0), lin_img.shape)
     lin = cov[..., None] * srgb_to_linear(colour) + (1.0 - cov[..., None]) * bg
-    return np.clip(np.rint(linear_to_srgb(lin)), 0, 255).astype(np.uint8)
+    return encode_u8(lin)
 
 
 def synthetic_contour_offsets(uv: np.ndarray, n: np.ndarray, synthetic: np.ndarray, sigma_px: float,
