@@ -31,33 +31,11 @@ import numpy as np
 PREDICTIONS = ("binary", "lit 1-D", "synthetic 2-D")
 
 
-def area_lit_colour(vr, lit: np.ndarray) -> np.ndarray:
-    """The lit template's colour (H, W, 3 uint8) wherever an object covers part of a pixel: inside
-    the binary silhouette ``lit`` (lit from the pixel-area colour), on the partly covered pixels
-    beside it their pixel-area colour shaded as the nearest inside pixel is (``lit`` / colour in
-    linear light)."""
-    from scipy.ndimage import distance_transform_edt
-
-    from ycbvss.refine.edge import srgb_to_linear
-    from ycbvss.refine.srgb import encode_u8
-
-    inside = vr.instance > 0
-    out = np.array(lit, copy=True)
-    part = (~inside) & (vr.coverage > 0)
-    if not part.any():
-        return out
-    ratio = srgb_to_linear(lit) / np.maximum(srgb_to_linear(np.where(inside[..., None], vr.area_color, vr.color)), 1.0)
-    _, (iy, ix) = distance_transform_edt(~inside, return_indices=True)
-    lin = srgb_to_linear(vr.area_color)[part] * ratio[iy, ix][part]
-    out[part] = encode_u8(lin)
-    return out
-
-
 def view_fits(vr, img: np.ndarray, oids: list[int], sigma_px: float, ring_px: float, min_samples: int) -> dict:
     """{(prediction, obj_id): (s_u, s_v, b, rest)} of one GT view (see the module docstring)."""
     from bench_contour_offsets import shift_fit
 
-    from ycbvss.refine.contour_match import synthetic_contour_offsets, synthetic_image
+    from ycbvss.refine.contour_match import rim_colour, synthetic_contour_offsets, synthetic_image
     from ycbvss.refine.edge import edge_field
     from ycbvss.refine.shading import lit_template
     from ycbvss.refine.templates import area_template, view_edge_candidates
@@ -69,7 +47,8 @@ def view_fits(vr, img: np.ndarray, oids: list[int], sigma_px: float, ring_px: fl
     c_bin = view_edge_candidates(vr, blur_sigma_px=sigma_px, normals=True)
     if area:
         col = np.where((vr.instance > 0)[..., None], vr.area_color, vr.color)
-        colour = area_lit_colour(vr, lit_template(col, vr.normal, vr.instance, img))
+        colour = rim_colour(vr.instance, vr.coverage, vr.color, vr.area_color,
+                            lit_template(col, vr.normal, vr.instance, img))
     else:
         colour = lit_point
     syn = synthetic_image(vr.instance, vr.coverage if area else None, colour, img, ring_px)

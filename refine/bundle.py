@@ -30,6 +30,7 @@ from .matching import (FlowOptions, dense_flow_pair, flow_matches, min_eig_map, 
 from .openness import open_points
 from .problem import BundleProblem, View, model_moments
 from .solver import SolverOptions, covariance, run_lm
+from .contour_match import rim_colour
 from .shading import lit_template, reflection_basis, view_lighting
 from .threads import single_threaded_kernels, view_pool as _view_pool
 from .evidence import _TurnFit, _quality_on_views, _turn_gains, _view_contour_offsets
@@ -182,7 +183,8 @@ class _Stage:
         edge_jobs = []
         # f_point's area-integrated templates only where its matches are made anew
         area = bool(opt.use_point and opt.alpha > 0 and (recompute_matches or self._point_term is None))
-        ridge_area = edge_opts is not None and edge_opts["ridge_area"]   # f_edge's interior samples in the area colour
+        # f_edge's interior samples (or its synthetic contour prediction) in the area colour
+        ridge_area = edge_opts is not None and (edge_opts["ridge_area"] or edge_opts["contour_area"])
         for i in self.term_views:
             vr = renders[i] = self.render(i, area=area or ridge_area)
             if ridge_area:
@@ -269,7 +271,9 @@ class _Stage:
         ridge = self.interior_ridge and self.at_finest
         if ridge:
             kw["interior_ridge_sigma_px"] = level_sigma
+        synthetic = app and opt.edge_appearance_model == "synthetic"
         return {"kw": kw, "app": app, "lit": app and self.shading and opt.edge_appearance_lit, "dil": dil,
+                "synthetic": synthetic, "contour_area": synthetic and opt.template_supersample > 1,
                 "ridge_area": ridge and opt.template_supersample > 1, "ridge_lit": ridge and opt.interior_ridge_lit,
                 "table": self._edge_table_plane()}
 
@@ -301,7 +305,8 @@ class _Stage:
                       table_offset=self.opt.edge_table_offset)
         return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] or ridge_lit else None,
                                    self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
-                                   eo["app"], ridge_lit, self.opt.shading_rim_px, self._reflection_K(i))
+                                   eo["app"], ridge_lit, self.opt.shading_rim_px, self._reflection_K(i),
+                                   eo.get("synthetic", False))
 
     def _edge_term(self, fields: dict, jobs: list, vis: set, eo: dict) -> EdgeTerm:
         """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
@@ -937,21 +942,32 @@ def _lit_colour(vr: ViewRender, image: np.ndarray, light: np.ndarray | None,
 def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np.ndarray | None, lit: bool,
                          light: np.ndarray | None, kw: dict, app: bool = True,
                          ridge_lit: bool = False, rim_px: int = 0,
-                         reflection_K: np.ndarray | None = None) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
+                         reflection_K: np.ndarray | None = None,
+                         synthetic: bool = False) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
     """One view's contour/interior candidates (:func:`view_edge_candidates` with the options ``kw``;
     ``image``: the view's image for the contour's appearance prediction, None: none). ``lit``: that
     prediction uses the lit template (``lit_color`` when already made, else made here with the
-    view's lighting ``light``, fitted here when None). Returns (the lit colour or None, the
-    lighting or None, the candidates)."""
+    view's lighting ``light``, fitted here when None). ``synthetic`` (with ``app``): the prediction
+    is the synthetic image's (``RefineOptions.edge_appearance_model``), in the pixel-area colour and
+    coverage where ``vr`` has them (lit with the same lighting when ``lit``). Returns (the lit colour
+    or None, the lighting or None, the candidates)."""
     if lit and lit_color is None:
         lit_color, light = _lit_colour(vr, image, light, rim_px, reflection_K)
+    app_colour = lit_color if lit else None
+    if app and synthetic and image is not None:
+        cov = None
+        if area_template(vr):
+            base = np.where((vr.instance > 0)[..., None], vr.area_color, vr.color)
+            base_lit = _lit_colour(dc_replace(vr, color=base), image, light, rim_px, reflection_K)[0] if lit else base
+            app_colour, cov = rim_colour(vr.instance, vr.coverage, vr.color, vr.area_color, base_lit), vr.coverage
+        kw = dict(kw, appearance_model="synthetic", appearance_coverage=cov)
     if ridge_lit:            # the interior samples' template (area colour or vr.color) lit as the image
         base = kw.get("interior_color")
         base_vr = vr if base is None else dc_replace(vr, color=base)
         icol, light = _lit_colour(base_vr, image, light, rim_px, reflection_K)   # the lighting passed in, or fitted here
         kw = dict(kw, interior_color=icol)
     return ((lit_color, light) if lit or ridge_lit else (None, None)) + (
-        view_edge_candidates(vr, image=image if app else None, appearance_color=lit_color if lit else None, **kw),)
+        view_edge_candidates(vr, image=image if app else None, appearance_color=app_colour, **kw),)
 
 
 def _view_matches_lit(vr: ViewRender, image: np.ndarray, box: tuple[int, int, int, int],
@@ -1801,6 +1817,9 @@ def _refine_scene(scene, models: dict, init: dict, opt: RefineOptions,
                           where=f"scene {scene.scene_id}")
     if opt.interior_sharpness_bundles != "all":
         group_specs["interior_sharpness_bundles"] = opt.interior_sharpness_bundles
+    if opt.edge_appearance_model not in ("profile", "synthetic"):
+        raise YcbvssError(f"RefineOptions.edge_appearance_model must be 'profile' or 'synthetic', got "
+                          f"{opt.edge_appearance_model!r}", where=f"scene {scene.scene_id}")
     if not (isinstance(opt.template_supersample, (int, np.integer)) and 1 <= int(opt.template_supersample) <= 8):
         raise YcbvssError(f"RefineOptions.template_supersample must be an integer 1-8, got {opt.template_supersample!r}",
                           where=f"scene {scene.scene_id}")

@@ -302,7 +302,8 @@ def _image_inside(a: np.ndarray, im: np.ndarray, p: np.ndarray, n: np.ndarray, t
 # and its curvature, all in 2-D. :func:`synthetic_contour_offsets` instead forms the image the
 # template predicts -- the template's colour mixed with the background by each pixel's coverage in
 # linear light, as a camera forms it -- and searches the minimum of the same edge field the image
-# gets (colour, blur sigma) along each sample's normal. Not used by the refiner yet.
+# gets (colour, blur sigma) along each sample's normal. The refiner uses it with
+# ``RefineOptions.edge_appearance_model = "synthetic"`` (off by default).
 
 def synthetic_image(instance: np.ndarray, coverage: np.ndarray | None, colour: np.ndarray, image: np.ndarray,
                     ring_px: float = 2.5) -> np.ndarray:
@@ -345,4 +346,25 @@ def synthetic_contour_offsets(uv: np.ndarray, n: np.ndarray, synthetic: np.ndarr
     t = _minimum_along(fld, uv - (x0, y0), np.asarray(n, np.float64), half_px, step_px)
     ok = np.abs(t) < half_px - step_px
     out[ok] = t[ok]
+    return out
+
+
+def rim_colour(instance: np.ndarray, coverage: np.ndarray, point_colour: np.ndarray, area_colour: np.ndarray,
+               lit: np.ndarray) -> np.ndarray:
+    """The lit template's colour (H, W, 3 uint8 sRGB) wherever an object covers part of a pixel, for
+    :func:`synthetic_image`: inside the binary silhouette (``instance`` > 0) ``lit`` (the pixel-area
+    colour lit), on the partly covered pixels beside it (``coverage`` > 0) their ``area_colour``
+    shaded as the nearest inside pixel is (the ratio ``lit`` / colour there, in linear light;
+    ``point_colour`` is the colour outside the silhouettes the area colour replaced nowhere)."""
+    from scipy.ndimage import distance_transform_edt
+
+    inside = np.asarray(instance) > 0
+    out = np.array(lit, copy=True)
+    part = (~inside) & (np.asarray(coverage) > 0)
+    if not part.any() or not inside.any():
+        return out
+    base = np.where(inside[..., None], area_colour, point_colour)
+    ratio = srgb_to_linear(lit) / np.maximum(srgb_to_linear(base), 1.0)
+    _, (iy, ix) = distance_transform_edt(~inside, return_indices=True)
+    out[part] = encode_u8(srgb_to_linear(area_colour)[part] * ratio[iy, ix][part])
     return out

@@ -114,6 +114,14 @@ class RefineOptions:
     # 66): tx/ty/tz/R/PRJ 0.079/0.115/0.299/0.231/0.145 -> 0.075/0.119/0.407/0.267/0.143 (medium-3 and
     # -1 recede 1.2 and 0.6 mm as a whole: the scene scale, bench/results/ycbv21/README.md session 66)
     edge_appearance_lit: bool = True
+    # with edge_appearance: how the contour's appearance is predicted at the finest level. "profile":
+    # one profile per sample along its normal (refine.contour_match.appearance_offsets); "synthetic":
+    # the image the template predicts (its colour mixed with the image's background by each pixel's
+    # coverage, pixel-area colour where the bundle supersamples), searched with the image's own edge
+    # operator (refine.contour_match.synthetic_contour_offsets). At the exact GT on Cycles images
+    # (bench/bench_contour_synthetic.py, session 89) the per-sample rest falls 30-47 % on every set;
+    # the shared shift a third on long-1/2, 7 % on held-out long-3, none on long-66
+    edge_appearance_model: str = "profile"
     # f_edge's contour samples skip contact lines: silhouette pixels whose neighbour is another
     # object's surface less than this far behind (mm; refine.edge.all_contour_points). There the
     # image's edge is the contact shadow's: on suite medium-4 the foam brick resting on the sugar box

@@ -12,7 +12,8 @@ import numpy as np
 from ..geometry.se3 import inv_T
 from ..render import Renderer
 from .area_kernel import subpixel_sums
-from .contour_match import appearance_offsets, contour_normals, match_contour_to_blur
+from .contour_match import (appearance_offsets, contour_normals, match_contour_to_blur, synthetic_contour_offsets,
+                            synthetic_image)
 from .edge import all_contour_points, all_interior_points, contact_samples, contour_points, interior_points, subsample
 from .jacobians import backproject_px
 from .srgb import encode_u8
@@ -267,7 +268,9 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          junction_px: float = 0.0, interior_ridge_sigma_px: float = 0.0,
                          interior_color: np.ndarray | None = None,
                          table_plane: tuple | None = None, table_offset: bool = False,
-                         interior_turn_labels: np.ndarray | None = None) -> EdgeCandidates:
+                         interior_turn_labels: np.ndarray | None = None,
+                         appearance_model: str = "profile",
+                         appearance_coverage: np.ndarray | None = None) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -295,7 +298,12 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     (:func:`ycbvss.refine.edge.ridge_edges`), in ``interior_color`` (e.g. the pixel-area template
     ``vr.area_color``; None: ``vr.color``). ``table_plane`` (n_c, d_c, K, height_mm): no contour
     samples less than that high above the table plane (:func:`near_plane`); with ``table_offset``
-    they are kept and, with ``normals_contact_mm`` > 0, keep their normals like contact-line samples."""
+    they are kept and, with ``normals_contact_mm`` > 0, keep their normals like contact-line samples.
+    ``appearance_model`` "synthetic" (with ``image``): the appearance prediction is not one profile
+    per sample but the image the template predicts, searched with the image's own edge operator
+    (:func:`ycbvss.refine.contour_match.synthetic_contour_offsets`): ``appearance_color`` (the objects'
+    colour wherever they cover part of a pixel) mixed with the image's background by
+    ``appearance_coverage`` (H, W; None: the binary silhouettes); samples where it shows no edge are dropped."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
                                         contact_mm=contact_mm, junction_px=junction_px)
     at_table = None
@@ -307,7 +315,16 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     if blur_sigma_px is not None:
         geo = uv_c
         uv_c = match_contour_to_blur(uv_c, l_c, vr.instance, blur_sigma_px)
-        if image is not None:
+        if image is not None and appearance_model == "synthetic":
+            col = vr.color if appearance_color is None else appearance_color
+            n = contour_normals(uv_c, l_c, vr.instance, blur_sigma_px)
+            syn = synthetic_image(vr.instance, appearance_coverage, col, image)
+            off = synthetic_contour_offsets(uv_c, n, syn, blur_sigma_px)
+            ok = np.isfinite(off)
+            uv_c = uv_c[ok] + off[ok, None] * n[ok]
+            geo, d_c, l_c = geo[ok], d_c[ok], l_c[ok]
+            at_table = None if at_table is None else at_table[ok]
+        elif image is not None:
             col = vr.color if appearance_color is None else appearance_color
             off, n = appearance_offsets(geo, l_c, vr.instance, col, image, blur_sigma_px)
             uv_c = uv_c + off[:, None] * n
