@@ -120,7 +120,12 @@ class RefineOptions:
     # coverage, pixel-area colour where the bundle supersamples), searched with the image's own edge
     # operator (refine.contour_match.synthetic_contour_offsets). At the exact GT on Cycles images
     # (bench/bench_contour_synthetic.py, session 89) the per-sample rest falls 30-47 % on every set;
-    # the shared shift a third on long-1/2, 7 % on held-out long-3, none on long-66
+    # the shared shift a third on long-1/2, 7 % on held-out long-3, none on long-66. Off: long clips 1-3
+    # from the exact GT, free cameras, seed 0 (session 90, bench/results/ycbv21/README.md): long-1/2
+    # gain (long-1 tz 0.228 -> 0.165 mm, mustard R 0.163 -> 0.111 deg) but the large marker spins
+    # (R 0.125 -> 0.533 deg) and held-out long-3's scale comes 0.58 mm nearer (tz 0.141 -> 0.577 mm):
+    # with free cameras the mean contour dilation over all objects sets the scale, and the two
+    # predictions' means differ by 0.015 px there
     edge_appearance_model: str = "profile"
     # f_edge's contour samples skip contact lines: silhouette pixels whose neighbour is another
     # object's surface less than this far behind (mm; refine.edge.all_contour_points). There the
