@@ -46,9 +46,8 @@ def view_fits(vr, img: np.ndarray, oids: list[int], sigma_px: float, ring_px: fl
     c_lit = view_edge_candidates(vr, blur_sigma_px=sigma_px, normals=True, image=img, appearance_color=lit_point)
     c_bin = view_edge_candidates(vr, blur_sigma_px=sigma_px, normals=True)
     if area:
-        col = np.where((vr.instance > 0)[..., None], vr.area_color, vr.color)
-        colour = rim_colour(vr.instance, vr.coverage, vr.color, vr.area_color,
-                            lit_template(col, vr.normal, vr.instance, img))
+        colour = rim_colour(vr.instance, vr.coverage, vr.area_color,
+                            lit_template(vr.area_color, vr.normal, vr.instance, img))
     else:
         colour = lit_point
     syn = synthetic_image(vr.instance, vr.coverage if area else None, colour, img, ring_px)

@@ -957,9 +957,9 @@ def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np
     if app and synthetic and image is not None:
         cov = None
         if area_template(vr):
-            base = np.where((vr.instance > 0)[..., None], vr.area_color, vr.color)
-            base_lit = _lit_colour(dc_replace(vr, color=base), image, light, rim_px, reflection_K)[0] if lit else base
-            app_colour, cov = rim_colour(vr.instance, vr.coverage, vr.color, vr.area_color, base_lit), vr.coverage
+            area_lit = _lit_colour(dc_replace(vr, color=vr.area_color), image, light, rim_px, reflection_K)[0] if lit \
+                else vr.area_color
+            app_colour, cov = rim_colour(vr.instance, vr.coverage, vr.area_color, area_lit), vr.coverage
         kw = dict(kw, appearance_model="synthetic", appearance_coverage=cov)
     if ridge_lit:            # the interior samples' template (area colour or vr.color) lit as the image
         base = kw.get("interior_color")

@@ -349,13 +349,12 @@ def synthetic_contour_offsets(uv: np.ndarray, n: np.ndarray, synthetic: np.ndarr
     return out
 
 
-def rim_colour(instance: np.ndarray, coverage: np.ndarray, point_colour: np.ndarray, area_colour: np.ndarray,
-               lit: np.ndarray) -> np.ndarray:
+def rim_colour(instance: np.ndarray, coverage: np.ndarray, area_colour: np.ndarray, lit: np.ndarray) -> np.ndarray:
     """The lit template's colour (H, W, 3 uint8 sRGB) wherever an object covers part of a pixel, for
-    :func:`synthetic_image`: inside the binary silhouette (``instance`` > 0) ``lit`` (the pixel-area
-    colour lit), on the partly covered pixels beside it (``coverage`` > 0) their ``area_colour``
-    shaded as the nearest inside pixel is (the ratio ``lit`` / colour there, in linear light;
-    ``point_colour`` is the colour outside the silhouettes the area colour replaced nowhere)."""
+    :func:`synthetic_image`: inside the binary silhouette (``instance`` > 0) ``lit`` (``area_colour``,
+    the pixel-area colour, lit), on the partly covered pixels beside it (``coverage`` > 0) their
+    ``area_colour`` shaded as the nearest inside pixel is (the ratio ``lit`` / ``area_colour`` there,
+    in linear light)."""
     from scipy.ndimage import distance_transform_edt
 
     inside = np.asarray(instance) > 0
@@ -363,8 +362,7 @@ def rim_colour(instance: np.ndarray, coverage: np.ndarray, point_colour: np.ndar
     part = (~inside) & (np.asarray(coverage) > 0)
     if not part.any() or not inside.any():
         return out
-    base = np.where(inside[..., None], area_colour, point_colour)
-    ratio = srgb_to_linear(lit) / np.maximum(srgb_to_linear(base), 1.0)
-    _, (iy, ix) = distance_transform_edt(~inside, return_indices=True)
+    ratio = srgb_to_linear(lit) / np.maximum(srgb_to_linear(area_colour), 1.0)
+    _, (iy, ix) = distance_transform_edt(~inside, return_indices=True)    # the nearest inside pixel
     out[part] = encode_u8(srgb_to_linear(area_colour)[part] * ratio[iy, ix][part])
     return out
