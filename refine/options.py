@@ -125,7 +125,9 @@ class RefineOptions:
     # gain (long-1 tz 0.228 -> 0.165 mm, mustard R 0.163 -> 0.111 deg) but the large marker spins
     # (R 0.125 -> 0.533 deg) and held-out long-3's scale comes 0.58 mm nearer (tz 0.141 -> 0.577 mm):
     # with free cameras the mean contour dilation over all objects sets the scale, and the two
-    # predictions' means differ by 0.015 px there
+    # predictions' means differ by 0.015 px there. Medium clips 1-9, paper init, seeds 0, 1, 5:
+    # tx/ty/tz/R/PRJ 0.093/0.097/0.316/0.191/0.133 -> 0.085/0.100/0.336/0.211/0.132, objects meeting
+    # every target 16 -> 15 (the large marker's R 0.43 -> 1.12 deg)
     edge_appearance_model: str = "profile"
     # f_edge's contour samples skip contact lines: silhouette pixels whose neighbour is another
     # object's surface less than this far behind (mm; refine.edge.all_contour_points). There the
