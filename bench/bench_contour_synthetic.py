@@ -31,7 +31,8 @@ import numpy as np
 PREDICTIONS = ("binary", "lit 1-D", "synthetic 2-D")
 
 
-def view_fits(vr, img: np.ndarray, oids: list[int], sigma_px: float, ring_px: float, min_samples: int) -> dict:
+def view_fits(vr, img: np.ndarray, oids: list[int], sigma_px: float, ring_px: float, min_samples: int,
+              psf_sigma_px: float = 0.0) -> dict:
     """{(prediction, obj_id): (s_u, s_v, b, rest)} of one GT view (see the module docstring)."""
     from bench_contour_offsets import shift_fit
 
@@ -50,7 +51,7 @@ def view_fits(vr, img: np.ndarray, oids: list[int], sigma_px: float, ring_px: fl
                             lit_template(vr.area_color, vr.normal, vr.instance, img))
     else:
         colour = lit_point
-    syn = synthetic_image(vr.instance, vr.coverage if area else None, colour, img, ring_px)
+    syn = synthetic_image(vr.instance, vr.coverage if area else None, colour, img, ring_px, psf_sigma_px)
     out = {}
     for lab0, oid in enumerate(oids):
         sb = np.flatnonzero((c_bin.l_c == lab0 + 1) & np.any(c_bin.n_c != 0.0, axis=1))
@@ -82,12 +83,14 @@ def main() -> None:
     ap.add_argument("--sigma-px", type=float, default=1.0)
     ap.add_argument("--ring", type=float, default=2.5, help="px beside the silhouettes where the background is carried in")
     ap.add_argument("--min-samples", type=int, default=40)
+    ap.add_argument("--psf", type=float, default=0.0, help="camera blur (px, Gaussian sigma in linear light) added "
+                                                            "to the synthetic image")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     fits: dict = {}
     names: dict = {}
     for models, sid, _, img, vr, oids in gt_views(a):
-        for (name, oid), f in view_fits(vr, img, oids, a.sigma_px, a.ring, a.min_samples).items():
+        for (name, oid), f in view_fits(vr, img, oids, a.sigma_px, a.ring, a.min_samples, a.psf).items():
             fits.setdefault(name, []).append(f)
             fits.setdefault((name, oid), []).append(f)
             names[oid] = getattr(models[oid], "name", None) or str(oid)
@@ -95,7 +98,7 @@ def main() -> None:
     t = Table(cols, label_header="prediction", digits=3,
               caption=f"Contour at the exact GT against three predictions: shared shift s, dilation b and per-sample rest "
                       f"(scenes {a.scenes}, frame positions {a.frames}, blur {a.sigma_px} px, template "
-                      f"{a.supersample} x {a.supersample} sub-pixels)")
+                      f"{a.supersample} x {a.supersample} sub-pixels, camera blur {a.psf} px)")
     for name in PREDICTIONS:
         if fits.get(name):
             t.rows.append(Row(name, summary(np.array(fits[name]))))

@@ -306,7 +306,7 @@ class _Stage:
         return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] or ridge_lit else None,
                                    self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
                                    eo["app"], ridge_lit, self.opt.shading_rim_px, self._reflection_K(i),
-                                   eo.get("synthetic", False))
+                                   eo.get("synthetic", False), self.opt.edge_synthetic_psf_px * self.pb.views[i].width / 640.0)
 
     def _edge_term(self, fields: dict, jobs: list, vis: set, eo: dict) -> EdgeTerm:
         """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
@@ -943,13 +943,13 @@ def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np
                          light: np.ndarray | None, kw: dict, app: bool = True,
                          ridge_lit: bool = False, rim_px: int = 0,
                          reflection_K: np.ndarray | None = None,
-                         synthetic: bool = False) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
+                         synthetic: bool = False, psf_px: float = 0.0) -> tuple[np.ndarray | None, np.ndarray | None, EdgeCandidates]:
     """One view's contour/interior candidates (:func:`view_edge_candidates` with the options ``kw``;
     ``image``: the view's image for the contour's appearance prediction, None: none). ``lit``: that
     prediction uses the lit template (``lit_color`` when already made, else made here with the
     view's lighting ``light``, fitted here when None). ``synthetic`` (with ``app``): the prediction
     is the synthetic image's (``RefineOptions.edge_appearance_model``), in the pixel-area colour and
-    coverage where ``vr`` has them (lit with the same lighting when ``lit``). Returns (the lit colour
+    coverage where ``vr`` has them (lit with the same lighting when ``lit``), blurred by ``psf_px``. Returns (the lit colour
     or None, the lighting or None, the candidates)."""
     if lit and lit_color is None:
         lit_color, light = _lit_colour(vr, image, light, rim_px, reflection_K)
@@ -960,7 +960,7 @@ def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np
             area_lit = _lit_colour(dc_replace(vr, color=vr.area_color), image, light, rim_px, reflection_K)[0] if lit \
                 else vr.area_color
             app_colour, cov = rim_colour(vr.instance, vr.coverage, vr.area_color, area_lit), vr.coverage
-        kw = dict(kw, appearance_model="synthetic", appearance_coverage=cov)
+        kw = dict(kw, appearance_model="synthetic", appearance_coverage=cov, appearance_psf_px=psf_px)
     if ridge_lit:            # the interior samples' template (area colour or vr.color) lit as the image
         base = kw.get("interior_color")
         base_vr = vr if base is None else dc_replace(vr, color=base)
@@ -1836,7 +1836,7 @@ def _refine_scene(scene, models: dict, init: dict, opt: RefineOptions,
         v = getattr(opt, name)
         if not (isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and np.isfinite(v) and v > 0.0):
             raise YcbvssError(f"RefineOptions.{name} must be a finite number > 0, got {v!r}", where=f"scene {scene.scene_id}")
-    for name in ("edge_contact_mm", "edge_table_mm", "edge_junction_px", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
+    for name in ("edge_contact_mm", "edge_table_mm", "edge_synthetic_psf_px", "edge_junction_px", "contact_weight", "contact_tol_mm", "table_weight", "table_span_deg",
                  "ridge_fallback_mm", "ridge_fallback_speed", "edge_contact_offset_k", "edge_shift_k", "contact_offset_mm", "point_min_openness",
                  "table_rest_lean_mm"):
         v = getattr(opt, name)

@@ -306,13 +306,15 @@ def _image_inside(a: np.ndarray, im: np.ndarray, p: np.ndarray, n: np.ndarray, t
 # ``RefineOptions.edge_appearance_model = "synthetic"`` (off by default).
 
 def synthetic_image(instance: np.ndarray, coverage: np.ndarray | None, colour: np.ndarray, image: np.ndarray,
-                    ring_px: float = 2.5) -> np.ndarray:
+                    ring_px: float = 2.5, psf_sigma_px: float = 0.0) -> np.ndarray:
     """The image (H, W, 3) uint8 sRGB a template predicts: each pixel's ``colour`` (H, W, 3 uint8 sRGB,
     the objects' colour wherever ``coverage`` > 0) mixed in linear light by its ``coverage`` (H, W)
     in [0, 1] (None: the binary ``instance`` > 0) with the background. The background is ``image``
     (H, W, 3 uint8) farther than ``ring_px`` px from every silhouette of ``instance`` and, nearer,
     the nearest such pixel's colour: the image's own pixels beside the silhouette hold the object's
-    blurred edge whenever the pose is off, so the prediction would follow the image, not the pose."""
+    blurred edge whenever the pose is off, so the prediction would follow the image, not the pose.
+    ``psf_sigma_px`` > 0: the mix is blurred in linear light by a Gaussian of that sigma (px), a
+    camera's blur beyond the pixel's area, before it is encoded."""
     from scipy.ndimage import distance_transform_edt
 
     inside = np.asarray(instance) > 0
@@ -325,6 +327,8 @@ def synthetic_image(instance: np.ndarray, coverage: np.ndarray | None, colour: n
     else:
         bg = np.broadcast_to(np.median(lin_img.reshape(-1, lin_img.shape[-1]), axis=0), lin_img.shape)
     lin = cov[..., None] * srgb_to_linear(colour) + (1.0 - cov[..., None]) * bg
+    if psf_sigma_px > 0.0:
+        lin = cv2.GaussianBlur(np.ascontiguousarray(lin, np.float32), (0, 0), float(psf_sigma_px))
     return encode_u8(lin)
 
 

@@ -129,6 +129,12 @@ class RefineOptions:
     # tx/ty/tz/R/PRJ 0.093/0.097/0.316/0.191/0.133 -> 0.085/0.100/0.336/0.211/0.132, objects meeting
     # every target 16 -> 15 (the large marker's R 0.43 -> 1.12 deg)
     edge_appearance_model: str = "profile"
+    # with edge_appearance_model "synthetic": the synthetic image blurred in linear light by a Gaussian
+    # of this sigma (px at 640 px width), a camera's blur beyond each pixel's area (0: none). Measured
+    # (session 90): from the exact GT with free cameras, 8 frames of held-out long-3, the scene's mean tz
+    # -0.44 / -0.42 / -0.28 / +1.16 mm at 0 / 0.2 / 0.35 / 0.6 px; at the GT on long-1/2, 0.6 px fits the
+    # image's contours worse (bench_contour_synthetic --psf). Off with the synthetic prediction itself
+    edge_synthetic_psf_px: float = 0.0
     # f_edge's contour samples skip contact lines: silhouette pixels whose neighbour is another
     # object's surface less than this far behind (mm; refine.edge.all_contour_points). There the
     # image's edge is the contact shadow's: on suite medium-4 the foam brick resting on the sugar box

@@ -270,7 +270,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          table_plane: tuple | None = None, table_offset: bool = False,
                          interior_turn_labels: np.ndarray | None = None,
                          appearance_model: str = "profile",
-                         appearance_coverage: np.ndarray | None = None) -> EdgeCandidates:
+                         appearance_coverage: np.ndarray | None = None,
+                         appearance_psf_px: float = 0.0) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -303,7 +304,9 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     per sample but the image the template predicts, searched with the image's own edge operator
     (:func:`ycbvss.refine.contour_match.synthetic_contour_offsets`): ``appearance_color`` (the objects'
     colour wherever they cover part of a pixel) mixed with the image's background by
-    ``appearance_coverage`` (H, W; None: the binary silhouettes); samples where it shows no edge are dropped."""
+    ``appearance_coverage`` (H, W; None: the binary silhouettes) and blurred by a camera blur of
+    ``appearance_psf_px`` (:func:`ycbvss.refine.contour_match.synthetic_image`); samples where it shows
+    no edge are dropped."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
                                         contact_mm=contact_mm, junction_px=junction_px)
     at_table = None
@@ -318,7 +321,7 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
         if image is not None and appearance_model == "synthetic":
             col = vr.color if appearance_color is None else appearance_color
             n = contour_normals(uv_c, l_c, vr.instance, blur_sigma_px)
-            syn = synthetic_image(vr.instance, appearance_coverage, col, image)
+            syn = synthetic_image(vr.instance, appearance_coverage, col, image, psf_sigma_px=appearance_psf_px)
             off = synthetic_contour_offsets(uv_c, n, syn, blur_sigma_px)
             ok = np.isfinite(off)
             uv_c = uv_c[ok] + off[ok, None] * n[ok]
