@@ -110,3 +110,22 @@ def test_edge_candidates_follow_the_synthetic_prediction():
     # measured: binary 0.49 px, the refiner's 1-D profile prediction 0.23 px, synthetic 0.02 px
     assert rest(c_bin) > 0.3
     assert rest(c_syn) < 0.1
+
+
+def test_camera_blur_widens_the_edge_by_its_sigma():
+    """synthetic_image(psf_sigma_px=s): the edge of a half-plane, in linear light, is a Gaussian step of
+    that sigma (its 25-75 % width 1.349 s; the interpolated crossing points of the pixel values)."""
+    H, W = 24, 40
+    inst = np.zeros((H, W), np.int32)
+    inst[:, 20:] = 1
+    col = np.full((H, W, 3), 230, np.uint8)
+    img = np.full((H, W, 3), 20, np.uint8)
+    for s in (0.8, 1.5):
+        lin = srgb_to_linear(synthetic_image(inst, None, col, img, ring_px=2.5, psf_sigma_px=s))[H // 2, :, 0]
+        lo, hi = srgb_to_linear(np.uint8(20)), srgb_to_linear(np.uint8(230))
+        f = (lin - lo) / (hi - lo)                     # 0 .. 1 across the edge at x = 19.5
+        assert np.all(np.diff(f) >= -1e-3)
+        x = np.arange(W, dtype=float)
+        q25, q75 = np.interp(0.25, f, x), np.interp(0.75, f, x)
+        assert abs((q25 + q75) / 2 - 19.5) < 0.05
+        assert abs((q75 - q25) - 1.349 * s) < 0.2 * s
