@@ -33,8 +33,7 @@ def refine_from_gt(scene, models: dict, opts: dict, fixed: bool) -> dict:
 
 def object_errors(scene, models: dict, poses: dict) -> dict:
     """{obj_id: (mean R deg, mean signed tz mm)} of ``poses`` against the scene's GT."""
-    from scipy.spatial.transform import Rotation
-
+    from ycbvss.eval.metrics import re_deg
     from ycbvss.pipeline.suite_run import _bowl_free_rotation_deg
 
     gt = {(f.im_id, i.obj_id): i.T_m2c for f in scene.frames for i in f.instances}
@@ -46,9 +45,8 @@ def object_errors(scene, models: dict, poses: dict) -> dict:
         m = models[oid]
         axis = (np.asarray(m.symmetries_continuous[0]["axis"], float)
                 if m.symmetric and m.symmetries_continuous else None)
-        r = [(_bowl_free_rotation_deg(poses[k][:3, :3], gt[k][:3, :3], axis) if axis is not None else
-              float(np.degrees(np.linalg.norm(Rotation.from_matrix(gt[k][:3, :3].T @ poses[k][:3, :3]).as_rotvec()))))
-             for k in ks]
+        r = [_bowl_free_rotation_deg(poses[k][:3, :3], gt[k][:3, :3], axis) if axis is not None else
+             float(re_deg(poses[k][:3, :3], gt[k][:3, :3])) for k in ks]
         out[oid] = (float(np.mean(r)), float(np.mean([poses[k][2, 3] - gt[k][2, 3] for k in ks])))
     return out
 

@@ -184,10 +184,10 @@ class _Stage:
         # f_point's area-integrated templates only where its matches are made anew
         area = bool(opt.use_point and opt.alpha > 0 and (recompute_matches or self._point_term is None))
         # f_edge's interior samples (or its synthetic contour prediction) in the area colour
-        ridge_area = edge_opts is not None and (edge_opts["ridge_area"] or edge_opts["contour_area"])
+        edge_area = edge_opts is not None and (edge_opts["ridge_area"] or edge_opts["contour_area"])
         for i in self.term_views:
-            vr = renders[i] = self.render(i, area=area or ridge_area)
-            if ridge_area:
+            vr = renders[i] = self.render(i, area=area or edge_area)
+            if edge_area:
                 area_template(vr)       # here, on the GL thread: f_edge's and f_point's pool jobs both read it
             seen = {(i, j) for j in vr.obj_index if int(vr.mask(j).sum()) >= opt.min_visible_px}
             vis |= seen
@@ -306,7 +306,7 @@ class _Stage:
         return _view_pool().submit(_lit_edge_candidates, vr, self.pb.views[i].image if eo["app"] or ridge_lit else None,
                                    self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
                                    eo["app"], ridge_lit, self.opt.shading_rim_px, self._reflection_K(i),
-                                   eo.get("synthetic", False), self.opt.edge_synthetic_psf_px * self.pb.views[i].width / 640.0)
+                                   eo["synthetic"], self.opt.edge_synthetic_psf_px * self.pb.views[i].width / 640.0)
 
     def _edge_term(self, fields: dict, jobs: list, vis: set, eo: dict) -> EdgeTerm:
         """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
@@ -949,8 +949,8 @@ def _lit_edge_candidates(vr: ViewRender, image: np.ndarray | None, lit_color: np
     prediction uses the lit template (``lit_color`` when already made, else made here with the
     view's lighting ``light``, fitted here when None). ``synthetic`` (with ``app``): the prediction
     is the synthetic image's (``RefineOptions.edge_appearance_model``), in the pixel-area colour and
-    coverage where ``vr`` has them (lit with the same lighting when ``lit``), blurred by ``psf_px``. Returns (the lit colour
-    or None, the lighting or None, the candidates)."""
+    coverage where ``vr`` has them (lit with the same lighting when ``lit``), blurred by ``psf_px``.
+    Returns (the lit colour or None, the lighting or None, the candidates)."""
     if lit and lit_color is None:
         lit_color, light = _lit_colour(vr, image, light, rim_px, reflection_K)
     app_colour = lit_color if lit else None
