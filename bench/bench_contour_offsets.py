@@ -39,6 +39,8 @@ def add_view_args(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--frames", default="0,10,20,30", help="frame positions within each scene's rendered frames")
     ap.add_argument("--supersample", type=int, default=1,
                     help="templates' colour integrated over each pixel at N x N sub-pixels (RefineOptions.template_supersample)")
+    ap.add_argument("--srgb-textures", action="store_true",
+                    help="templates' textures filtered in linear light (RefineOptions.template_srgb_textures)")
     ap.add_argument("--images", default=None,
                     help="read the frames' images from this BOP root instead (the same scenes re-rendered, e.g. "
                          "with other Blender settings); all its frames are used")
@@ -49,12 +51,13 @@ def gt_views(a: argparse.Namespace):
     frame, Cycles image, ViewRender of the fast renderer, object ids in label order)."""
     from ycbvss.io.bop import load_bop_scene
     from ycbvss.pipeline.suite import build_suite
-    from ycbvss.refine.templates import ensure_meshes, get_renderer, render_view
+    from ycbvss.refine.templates import ensure_meshes, get_renderer, render_view, texture_mode
 
     root = Path(a.suite_root)
     scene_ids = [int(s) for s in a.scenes.split(",")]
     models, _ = build_suite(a.dataset, root, getattr(a, "suite", "ycbv21"), scene_ids=scene_ids)
-    r = get_renderer()
+    with texture_mode(bool(getattr(a, "srgb_textures", False))):
+        r = get_renderer()
     ensure_meshes(r, models)
     ss = int(getattr(a, "supersample", 1))
     other = getattr(a, "images", None)

@@ -32,7 +32,7 @@ PREDICTIONS = ("binary", "lit 1-D", "synthetic 2-D")
 
 
 def view_fits(vr, img: np.ndarray, oids: list[int], sigma_px: float, ring_px: float, min_samples: int,
-              psf_sigma_px: float = 0.0) -> dict:
+              psf_sigma_px: float = 0.0, pixel_filter: str = "box") -> dict:
     """{(prediction, obj_id): (s_u, s_v, b, rest)} of one GT view (see the module docstring)."""
     from bench_contour_offsets import shift_fit
 
@@ -44,7 +44,8 @@ def view_fits(vr, img: np.ndarray, oids: list[int], sigma_px: float, ring_px: fl
     fld = edge_field(img, sigma_px, colour=True)
     area = area_template(vr)
     lit_point = lit_template(vr.color, vr.normal, vr.instance, img)
-    c_lit = view_edge_candidates(vr, blur_sigma_px=sigma_px, normals=True, image=img, appearance_color=lit_point)
+    c_lit = view_edge_candidates(vr, blur_sigma_px=sigma_px, normals=True, image=img, appearance_color=lit_point,
+                                 appearance_pixel_filter=pixel_filter)
     c_bin = view_edge_candidates(vr, blur_sigma_px=sigma_px, normals=True)
     if area:
         colour = rim_colour(vr.instance, vr.coverage, vr.area_color,
@@ -85,12 +86,15 @@ def main() -> None:
     ap.add_argument("--min-samples", type=int, default=40)
     ap.add_argument("--psf", type=float, default=0.0, help="camera blur (px, Gaussian sigma in linear light) added "
                                                             "to the synthetic image")
+    ap.add_argument("--pixel-filter", default="box", help="the lit 1-D prediction's pixel footprint "
+                                                           "(RefineOptions.edge_pixel_filter)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     fits: dict = {}
     names: dict = {}
     for models, sid, _, img, vr, oids in gt_views(a):
-        for (name, oid), f in view_fits(vr, img, oids, a.sigma_px, a.ring, a.min_samples, a.psf).items():
+        for (name, oid), f in view_fits(vr, img, oids, a.sigma_px, a.ring, a.min_samples, a.psf,
+                                               a.pixel_filter).items():
             fits.setdefault(name, []).append(f)
             fits.setdefault((name, oid), []).append(f)
             names[oid] = getattr(models[oid], "name", None) or str(oid)
@@ -98,7 +102,8 @@ def main() -> None:
     t = Table(cols, label_header="prediction", digits=3,
               caption=f"Contour at the exact GT against three predictions: shared shift s, dilation b and per-sample rest "
                       f"(scenes {a.scenes}, frame positions {a.frames}, blur {a.sigma_px} px, template "
-                      f"{a.supersample} x {a.supersample} sub-pixels, camera blur {a.psf} px)")
+                      f"{a.supersample} x {a.supersample} sub-pixels, camera blur {a.psf} px, lit 1-D pixel filter "
+                      f"{a.pixel_filter})")
     for name in PREDICTIONS:
         if fits.get(name):
             t.rows.append(Row(name, summary(np.array(fits[name]))))

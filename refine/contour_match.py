@@ -192,10 +192,37 @@ def _peak_offset(profile: np.ndarray, t: np.ndarray, sigma_px: float, half_px: f
     return t[k] + np.clip(frac, -1.0, 1.0) * h
 
 
+def pixel_filter_kernel(spec: str, step_px: float) -> np.ndarray:
+    """Weights (K,) summing to 1 of a pixel's footprint across an edge, on a grid of ``step_px``:
+    how much of the light at each offset a pixel gathers. ``spec`` "box": an ideal area sensor, 1 px
+    wide (standard deviation 0.29 px); "blackman-harris:W": the Blackman-Harris window W px wide
+    (Blender Cycles' default pixel filter; W = 1 has a standard deviation of 0.14 px, W = 1.5 of
+    0.21 px). The sRGB encoding shifts an anti-aliased edge towards its darker side by an amount
+    that grows with this footprint: a dark object (linear 0.05) on a brighter ground (0.3) shows its
+    edge 0.09 px inside through a box and 0.045 px through Cycles' 1 px filter."""
+    if spec == "box":
+        nb = max(int(round(1.0 / step_px)), 1)
+        w = np.ones(nb + 1)
+        w[0] = w[-1] = 0.5
+        return w / w.sum()
+    kind, _, width = spec.partition(":")
+    if kind != "blackman-harris" or not width:
+        raise ValueError(f"pixel filter must be 'box' or 'blackman-harris:W', got {spec!r}")
+    w_px = float(width)
+    if not w_px > 0.0:
+        raise ValueError(f"pixel filter width must be > 0, got {spec!r}")
+    half = int(np.floor(0.5 * w_px / step_px))
+    x = 2.0 * np.pi * (np.arange(-half, half + 1) * step_px / w_px + 0.5)
+    w = 0.35875 - 0.48829 * np.cos(x) + 0.14128 * np.cos(2.0 * x) - 0.01168 * np.cos(3.0 * x)
+    w = np.clip(w, 0.0, None)
+    return w / w.sum()
+
+
 def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, colour_tmpl: np.ndarray,
                        image: np.ndarray, sigma_px: float, colour_edges: bool = True,
                        step_px: float = 0.25, outside_from_image_px: float | None = None,
-                       inside_from_image_px: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                       inside_from_image_px: float | None = None,
+                       pixel_filter: str = "box") -> tuple[np.ndarray, np.ndarray]:
     """Offsets t (N,) px along the outward normals n (N, 2) of the image edge predicted from appearance,
     relative to where a flat-coloured silhouette shows it, at the contour samples uv (N, 2)
     (geometric boundary points, px) of the silhouettes ``inst == labels``.
@@ -204,9 +231,10 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
     ``colour_tmpl`` (H, W, 3 uint8 sRGB; albedo) times a per-object gain that maps it to the
     image's interior (ratio of medians over the silhouette eroded by 3 px); outside, the image's
     colour 2.5-3.5 px beyond the contour (its median). The profile is integrated over one pixel
-    (anti-aliasing), encoded to sRGB, blurred by ``sigma_px`` and differentiated as the edge field
-    is; the offset is its gradient peak minus that of a flat step through the same pipeline
-    without encoding. Samples of silhouettes smaller than 20 px get 0. Returns (t, n).
+    (anti-aliasing; ``pixel_filter``, :func:`pixel_filter_kernel`), encoded to sRGB, blurred by
+    ``sigma_px`` and differentiated as the edge field is; the offset is its gradient peak minus that
+    of a flat step through the same pipeline without encoding. Samples of silhouettes smaller than
+    20 px get 0. Returns (t, n).
 
     Two probes of where the image departs from that model (``bench/bench_contour_rim_source.py``;
     the refiner uses neither): ``outside_from_image_px`` d: the outside is the image's own profile
@@ -225,10 +253,7 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
     reach = 3.0 * sig + 3.0
     t = np.arange(-np.ceil(reach / step_px), np.ceil(reach / step_px) + 1) * step_px
     half = 1.0 + 0.5 * sig
-    nb = int(round(1.0 / step_px))
-    box = np.ones(nb + 1)
-    box[0] = box[-1] = 0.5
-    box /= box.sum()                                   # a 1 px wide box on the step_px grid
+    box = pixel_filter_kernel(pixel_filter, step_px)  # the pixel's footprint on the step_px grid
     from scipy.ndimage import convolve1d
     step = (t >= 0).astype(np.float64)[None, :, None]
     ref = float(_peak_offset(convolve1d(step, box, axis=1, mode="nearest"), t, sig, half)[0])

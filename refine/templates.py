@@ -271,7 +271,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          interior_turn_labels: np.ndarray | None = None,
                          appearance_model: str = "profile",
                          appearance_coverage: np.ndarray | None = None,
-                         appearance_psf_px: float = 0.0) -> EdgeCandidates:
+                         appearance_psf_px: float = 0.0,
+                         appearance_pixel_filter: str = "box") -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -306,7 +307,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     colour wherever they cover part of a pixel) mixed with the image's background by
     ``appearance_coverage`` (H, W; None: the binary silhouettes) and blurred by a camera blur of
     ``appearance_psf_px`` (:func:`ycbvss.refine.contour_match.synthetic_image`); samples where it shows
-    no edge are dropped."""
+    no edge are dropped. ``appearance_pixel_filter``: the camera pixel's footprint the "profile" model
+    integrates each profile over (:func:`ycbvss.refine.contour_match.pixel_filter_kernel`)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
                                         contact_mm=contact_mm, junction_px=junction_px)
     at_table = None
@@ -329,7 +331,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
             at_table = None if at_table is None else at_table[ok]
         elif image is not None:
             col = vr.color if appearance_color is None else appearance_color
-            off, n = appearance_offsets(geo, l_c, vr.instance, col, image, blur_sigma_px)
+            off, n = appearance_offsets(geo, l_c, vr.instance, col, image, blur_sigma_px,
+                                        pixel_filter=appearance_pixel_filter)
             uv_c = uv_c + off[:, None] * n
     icol = vr.color if interior_color is None else interior_color
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, icol, vr.normal if creases else None,
