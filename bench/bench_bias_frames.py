@@ -63,7 +63,8 @@ def main() -> None:
     ap.add_argument("--suite", default="ycbv21")
     ap.add_argument("--scene", type=int, required=True)
     ap.add_argument("--frames", default="0,25,50,75,100,125,150,175", help="frame ids of the scene")
-    ap.add_argument("--cameras", default="fixed,free", help="fixed, free or both")
+    ap.add_argument("--cameras", default="fixed,free",
+                    help="comma-separated: fixed (held at the GT), free, or both as the default")
     ap.add_argument("--options", action="append", default=None,
                     help="RefineOptions overrides, a JSON object; repeat for more runs (default: one run, {})")
     ap.add_argument("--out", required=True, type=Path)
@@ -82,7 +83,10 @@ def main() -> None:
     t = Table(cols, label_header="cameras / options", digits=3,
               caption=f"From the exact GT, {a.suite} scene {a.scene}, frames {a.frames}: mean over objects of R "
                       f"(deg; the bowl's axis only) and of abs(tz) and tz (mm); per object R (deg) and tz (mm)")
-    runs = [(c, o) for c in a.cameras.split(",") for o in opt_sets]
+    cams = a.cameras.split(",")
+    if not cams or any(c not in ("fixed", "free") for c in cams):
+        raise SystemExit(f"bench_bias_frames: --cameras takes fixed, free or fixed,free; got {a.cameras!r}")
+    runs = [(c, o) for c in cams for o in opt_sets]
     for cams, opts in progress(runs, desc="runs", unit="run"):
         err = object_errors(scene, models, refine_from_gt(scene, models, opts, cams == "fixed"))
         r = [err[o][0] for o in oids if o in err]
