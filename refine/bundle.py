@@ -435,7 +435,7 @@ class _Stage:
             if ok.any():
                 groups.append(TemporalGroup(i, k, backproject_px(pb.views[k].K, xs[ok], d[ok]), xd[ok]))
         self._t("temporal_matching_s", time.perf_counter() - t0)
-        return TemporalTerm(groups, weight=opt.beta, rho=opt.rho)
+        return TemporalTerm(groups, weight=opt.beta, rho=opt.rho, scale_free=bool(opt.temporal_scale_free))
 
     def _contour_slide(self, j: int, X: np.ndarray, contour: np.ndarray | None) -> tuple | None:
         """``edge_contour_slide``: (model-frame unit axis, :func:`refine.contour_slide.slide_delta`)
@@ -1539,6 +1539,9 @@ def _scene_options(opt: RefineOptions, pb0: BundleProblem, kf: list[int], known:
     if isinstance(opt.edge_contour_slide, str):  # likewise
         opt = dc_replace(opt, edge_contour_slide=group in _groups(opt.edge_contour_slide))
     stats["edge_contour_slide"] = bool(opt.edge_contour_slide)
+    if isinstance(opt.temporal_scale_free, str):  # likewise
+        opt = dc_replace(opt, temporal_scale_free=group in _groups(opt.temporal_scale_free))
+    stats["temporal_scale_free"] = bool(opt.temporal_scale_free)
     if isinstance(opt.edge_across_only, str):    # likewise
         opt = dc_replace(opt, edge_across_only=group in _groups(opt.edge_across_only))
     stats["edge_across_only"] = bool(opt.edge_across_only)
@@ -1807,6 +1810,8 @@ def _refine_scene(scene, models: dict, init: dict, opt: RefineOptions,
         group_specs["axis_hold"] = opt.axis_hold
     if isinstance(opt.edge_contour_slide, str):
         group_specs["edge_contour_slide"] = opt.edge_contour_slide
+    if isinstance(opt.temporal_scale_free, str):
+        group_specs["temporal_scale_free"] = opt.temporal_scale_free
     if isinstance(opt.table_rest, str):
         group_specs["table_rest"] = opt.table_rest
     elif not isinstance(opt.table_rest, bool):

@@ -486,6 +486,11 @@ class RefineOptions:
     # banana 9.3 mm off (median over the keyframes; 9.4 with the lighting refitted every iteration),
     # "finest" 0.36 mm, the other five objects 0.08-0.18 mm either way
     flow_prior_levels: str = "finest"
+    # f_t's pairs each get a free scale of their points (refine.terms.TemporalTerm.scale_free): they hold
+    # the cameras' relative rotation and translation direction, not the baseline against the objects'
+    # depth, so a flow that reads the parallax short cannot shrink the scene. True / False, or a
+    # comma-separated list of baseline groups (per scene)
+    temporal_scale_free: bool | str = False
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
     temporal_neighbours: int = 1

@@ -28,7 +28,7 @@ from .contour_slide import apply_slide
 from .cubic_kernel import anchored_edge_values, edge_cost_sum
 from .normal_kernel import as_f64
 from .edge import EdgeField, across_edge_directions, sample_E, sample_field
-from .jacobians import MIN_Z_MM, _se3_jac, object_point_jacobians, project_points, transfer_point_jacobians
+from .jacobians import MIN_Z_MM, _se3_jac, object_point_jacobians, project_jac, project_points, transfer_point_jacobians
 from .problem import BundleProblem
 
 
@@ -436,9 +436,47 @@ class TemporalGroup:
 @dataclass
 class TemporalTerm(_RobustReprojectionTerm):
     """Robust two-view transfer cost between neighbouring views (cameras only); ``groups``:
-    TemporalGroups."""
+    TemporalGroups.
+
+    ``scale_free``: each pair's points Y_k get a shared scale (1 + s) that is marginalised out (s at
+    its best value in the cost, its Schur complement in the normal equations), so the pair holds the
+    cameras' relative rotation and the direction of their translation but not the baseline's length
+    against the points' depth. Why: Y_k is fixed at the depth the templates had when the matches were
+    made, so a pair whose flow reads the parallax a little short (at the exact GT of held-out long-3 on
+    the refiner's own images the residual flow's matches read the inter-frame displacement 0.03 %
+    short) pulls the cameras together at every new set of matches, and the objects follow them nearer:
+    the scene's scale creeps, held back only by the objects' apparent sizes."""
 
     name: str = "temporal"
+    scale_free: bool = False
+
+    def _points(self, gr: TemporalGroup, s: float) -> np.ndarray:
+        return gr.Y_k if s == 0.0 else gr.Y_k * (1.0 + s)
+
+    def _scale_basis(self, pb: BundleProblem, gr: TemporalGroup, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(uv (N, 2), d uv / d s (N, 2), valid (N,)) of the group's points scaled by (1 + s)."""
+        T = pb.T_c[gr.i] @ inv_T(pb.T_c[gr.k])
+        RY = gr.Y_k @ T[:3, :3].T
+        uv, Ju, valid = project_jac(pb.views[gr.i].K, (1.0 + s) * RY + T[:3, 3])
+        return uv, np.einsum("nij,nj->ni", Ju, RY), valid
+
+    def _best_scale(self, pb: BundleProblem, gr: TemporalGroup) -> float:
+        """The group's scale nuisance s minimising its robust cost (IRLS Gauss-Newton, at most 6 steps;
+        0 where the pair has no parallax to fix it)."""
+        s = 0.0
+        for _ in range(6):
+            uv, M, valid = self._scale_basis(pb, gr, s)
+            r = np.where(valid[:, None], gr.x - uv, 1e6)
+            _, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
+            ok = inl & valid
+            h = float((w[ok, None] * M[ok] * M[ok]).sum())
+            if h <= 1e-12:
+                return s
+            ds = float((w[ok, None] * M[ok] * r[ok]).sum()) / h
+            s += ds
+            if abs(ds) < 1e-9:
+                break
+        return s
 
     def _project(self, pb: BundleProblem, gr: TemporalGroup):
         return project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ inv_T(pb.T_c[gr.k]), gr.Y_k)
@@ -446,6 +484,54 @@ class TemporalTerm(_RobustReprojectionTerm):
     def _linear(self, pb: BundleProblem, gr: TemporalGroup):
         uv, Ji, Jk, valid = transfer_point_jacobians(pb.views[gr.i].K, pb.T_c[gr.i], pb.T_c[gr.k], gr.Y_k)
         return uv, int(pb.cam_block[gr.i]), int(pb.cam_block[gr.k]), Ji, Jk, valid
+
+    def cost(self, pb: BundleProblem) -> float:
+        if not self.scale_free:
+            return super().cost(pb)
+        tot = 0.0
+        for gr in self.groups:
+            uv, _, valid = self._scale_basis(pb, gr, self._best_scale(pb, gr))
+            r = np.where(valid[:, None], gr.x - uv, 1e6)
+            tot += robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)[0].sum()
+        return self.weight * float(tot)
+
+    def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
+        if not self.scale_free:
+            return super().linearize(pb)
+        total, out = 0.0, []
+        for gr in self.groups:
+            s = self._best_scale(pb, gr)
+            Y = self._points(gr, s)
+            uv, Ja, Jb, valid = transfer_point_jacobians(pb.views[gr.i].K, pb.T_c[gr.i], pb.T_c[gr.k], Y)
+            M = self._scale_basis(pb, gr, s)[1]
+            r = np.where(valid[:, None], gr.x - uv, 1e6)
+            c, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
+            total += float(c.sum())
+            ok = inl & valid
+            if not ok.any():
+                continue
+            ww, r, Ja, Jb, M = w[ok] * self.weight, r[ok], Ja[ok], Jb[ok], M[ok]
+            A = np.zeros((len(ww), 2, 2))
+            A[:, 0, 0] = A[:, 1, 1] = ww
+            g = -ww[:, None] * r
+            a, b = int(pb.cam_block[gr.i]), int(pb.cam_block[gr.k])
+            out.append(Linearization(a, b, Ja, Jb, A, g))
+            h = float((ww[:, None] * M * M).sum())
+            if h <= 1e-12:
+                continue
+            # s marginalised: the Schur complement -U h^-1 U^T, -U h^-1 g_s as one pseudo-point (one row
+            # used) whose Jacobian row is U / sqrt(h), pixel Hessian -1 and gradient -g_s / sqrt(h)
+            AM = ww[:, None] * M
+            l = 1.0 / np.sqrt(h)
+            Jpa, Jpb = np.zeros((1, 2, 6)), np.zeros((1, 2, 6))
+            Jpa[0, 0] = np.einsum("nik,ni->k", Ja, AM) * l
+            Jpb[0, 0] = np.einsum("nik,ni->k", Jb, AM) * l
+            Ap = np.zeros((1, 2, 2))
+            Ap[0, 0, 0] = -1.0
+            gp = np.zeros((1, 2))
+            gp[0, 0] = -float((M * g).sum()) * l
+            out.append(Linearization(a, b, Jpa, Jpb, Ap, gp))
+        return self.weight * total, out
 
 
 @dataclass
