@@ -69,6 +69,9 @@ def main() -> None:
                     help="RefineOptions overrides, a JSON object; repeat for more runs (default: one run, {})")
     ap.add_argument("--out", required=True, type=Path)
     a = ap.parse_args()
+    modes = a.cameras.split(",")
+    if any(c not in ("fixed", "free") for c in modes):
+        ap.error(f"--cameras takes fixed, free or fixed,free; got {a.cameras!r}")
     warnings.simplefilter("ignore")
     spec = next(s for s in SUITES[a.suite] if s.scene_id == a.scene)
     models = suite_models(a.dataset, a.out / "models_src", spec.obj_ids)
@@ -83,10 +86,7 @@ def main() -> None:
     t = Table(cols, label_header="cameras / options", digits=3,
               caption=f"From the exact GT, {a.suite} scene {a.scene}, frames {a.frames}: mean over objects of R "
                       f"(deg; the bowl's axis only) and of abs(tz) and tz (mm); per object R (deg) and tz (mm)")
-    cams = a.cameras.split(",")
-    if not cams or any(c not in ("fixed", "free") for c in cams):
-        raise SystemExit(f"bench_bias_frames: --cameras takes fixed, free or fixed,free; got {a.cameras!r}")
-    runs = [(c, o) for c in cams for o in opt_sets]
+    runs = [(c, o) for c in modes for o in opt_sets]
     for cams, opts in progress(runs, desc="runs", unit="run"):
         err = object_errors(scene, models, refine_from_gt(scene, models, opts, cams == "fixed"))
         r = [err[o][0] for o in oids if o in err]

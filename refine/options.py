@@ -489,7 +489,11 @@ class RefineOptions:
     # f_t's pairs each get a free scale of their points (refine.terms.TemporalTerm.scale_free): they hold
     # the cameras' relative rotation and translation direction, not the baseline against the objects'
     # depth, so a flow that reads the parallax short cannot shrink the scene. True / False, or a
-    # comma-separated list of baseline groups (per scene)
+    # comma-separated list of baseline groups (per scene). Off (session 91, bench/results/ycbv21/README.md):
+    # on held-out long-3's control images (the refiner's own renderer) free cameras end -0.37 mm too near
+    # with it off, -0.07 with it on; on the suite's Cycles images it exposes the appearance cues'
+    # opposite bias that the creep offsets (8 frames from the exact GT, free cameras, mean abs tz over
+    # long-1, -2, -3, -64, -66: 0.303 -> 0.384 mm, every scene too far)
     temporal_scale_free: bool | str = False
     match_every: int = 5              # recompute the 3D-2D flow matches every N outer iterations (they stay valid)
     rho: float = 0.25
