@@ -42,6 +42,11 @@ VARIANTS = {"suite": ("sun + ambient (suite)", {}),
             # fast renderer forms its templates (session 41: then the two agree on geometry and texture)
             "emission_point": ("unlit, pixel centres, 64 spp, no denoiser",
                                {"material": "emission", "samples": 64, "denoise": False, "filter_width": 0.01}),
+            # the suite's pixel filter (1 px) without its denoiser: what the denoiser does to the edges
+            "emission_nodenoise": ("unlit, the suite's 1 px pixel filter, 64 spp, no denoiser",
+                                   {"material": "emission", "samples": 64, "denoise": False}),
+            "suite_nodenoise": ("sun + ambient, the suite's 1 px pixel filter, 128 spp, no denoiser",
+                                {"samples": 128, "denoise": False}),
             "suite_point": ("sun + ambient, pixel centres, 128 spp, no denoiser",
                             {"samples": 128, "denoise": False, "filter_width": 0.01}),
             # a control, not evidence: the refiner's own fast renderer (the inverse crime on purpose). A
