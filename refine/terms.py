@@ -392,22 +392,30 @@ class _RobustReprojectionTerm(ABC):
             tot += robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)[0].sum()
         return self.weight * float(tot)
 
+    def _robust_linearization(self, x: np.ndarray, uv: np.ndarray, a: int, b: int, Ja: np.ndarray,
+                              Jb: np.ndarray, valid: np.ndarray) -> tuple[float, Linearization | None, np.ndarray]:
+        """One group's (unweighted cost, Linearization of its inlier rows or None, the rows kept) for
+        matched pixels x projected to uv with Jacobians Ja, Jb of blocks a, b."""
+        r = np.where(valid[:, None], x - uv, 1e6)
+        c, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
+        ok = inl & valid
+        if not ok.any():
+            return float(c.sum()), None, ok
+        if not ok.all():
+            w, r, Ja, Jb = w[ok], r[ok], Ja[ok], Jb[ok]
+        ww = w * self.weight
+        A = np.zeros((len(ww), 2, 2))
+        A[:, 0, 0] = A[:, 1, 1] = ww
+        return float(c.sum()), Linearization(a, b, Ja, Jb, A, -ww[:, None] * r), ok
+
     def linearize(self, pb: BundleProblem) -> tuple[float, list[Linearization]]:
         total, out = 0.0, []
         for gr in self.groups:
             uv, ba, bb, Ja, Jb, valid = self._linear(pb, gr)
-            r = np.where(valid[:, None], gr.x - uv, 1e6)
-            c, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
-            total += float(c.sum())
-            ok = inl & valid
-            if not ok.any():
-                continue
-            if not ok.all():
-                w, r, Ja, Jb = w[ok], r[ok], Ja[ok], Jb[ok]
-            ww = w * self.weight
-            A = np.zeros((len(ww), 2, 2))
-            A[:, 0, 0] = A[:, 1, 1] = ww
-            out.append(Linearization(ba, bb, Ja, Jb, A, -ww[:, None] * r))
+            c, lin, _ = self._robust_linearization(gr.x, uv, ba, bb, Ja, Jb, valid)
+            total += c
+            if lin is not None:
+                out.append(lin)
         return self.weight * total, out
 
 
@@ -449,9 +457,6 @@ class TemporalTerm(_RobustReprojectionTerm):
 
     name: str = "temporal"
     scale_free: bool = False
-
-    def _points(self, gr: TemporalGroup, s: float) -> np.ndarray:
-        return gr.Y_k if s == 0.0 else gr.Y_k * (1.0 + s)
 
     def _scale_basis(self, pb: BundleProblem, gr: TemporalGroup, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(uv (N, 2), d uv / d s (N, 2), valid (N,)) of the group's points scaled by (1 + s)."""
@@ -501,21 +506,18 @@ class TemporalTerm(_RobustReprojectionTerm):
         total, out = 0.0, []
         for gr in self.groups:
             s = self._best_scale(pb, gr)
-            Y = self._points(gr, s)
-            uv, Ja, Jb, valid = transfer_point_jacobians(pb.views[gr.i].K, pb.T_c[gr.i], pb.T_c[gr.k], Y)
-            M = self._scale_basis(pb, gr, s)[1]
-            r = np.where(valid[:, None], gr.x - uv, 1e6)
-            c, w, inl = robust_cost_weights(r, self.rho, self.floor_px, self.cap_px)
-            total += float(c.sum())
-            ok = inl & valid
-            if not ok.any():
-                continue
-            ww, r, Ja, Jb, M = w[ok] * self.weight, r[ok], Ja[ok], Jb[ok], M[ok]
-            A = np.zeros((len(ww), 2, 2))
-            A[:, 0, 0] = A[:, 1, 1] = ww
-            g = -ww[:, None] * r
+            uv, Ja, Jb, valid = transfer_point_jacobians(pb.views[gr.i].K, pb.T_c[gr.i], pb.T_c[gr.k],
+                                                         gr.Y_k * (1.0 + s))
             a, b = int(pb.cam_block[gr.i]), int(pb.cam_block[gr.k])
-            out.append(Linearization(a, b, Ja, Jb, A, g))
+            c, lin, ok = self._robust_linearization(gr.x, uv, a, b, Ja, Jb, valid)
+            total += c
+            if lin is None:
+                continue
+            out.append(lin)
+            # d uv / d s: camera i's translation columns of Ja (d uv / d Y_i) times R_ik Y_k
+            R = (pb.T_c[gr.i] @ inv_T(pb.T_c[gr.k]))[:3, :3]
+            M = np.einsum("nij,nj->ni", lin.Ja[:, :, :3], gr.Y_k[ok] @ R.T)
+            ww, g = lin.A[:, 0, 0], lin.g
             h = float((ww[:, None] * M * M).sum())
             if h <= 1e-12:
                 continue
@@ -524,8 +526,8 @@ class TemporalTerm(_RobustReprojectionTerm):
             AM = ww[:, None] * M
             l = 1.0 / np.sqrt(h)
             Jpa, Jpb = np.zeros((1, 2, 6)), np.zeros((1, 2, 6))
-            Jpa[0, 0] = np.einsum("nik,ni->k", Ja, AM) * l
-            Jpb[0, 0] = np.einsum("nik,ni->k", Jb, AM) * l
+            Jpa[0, 0] = np.einsum("nik,ni->k", lin.Ja, AM) * l
+            Jpb[0, 0] = np.einsum("nik,ni->k", lin.Jb, AM) * l
             Ap = np.zeros((1, 2, 2))
             Ap[0, 0, 0] = -1.0
             gp = np.zeros((1, 2))
