@@ -49,6 +49,18 @@ VARIANTS = {"suite": ("sun + ambient (suite)", {}),
                                 {"samples": 128, "denoise": False}),
             "suite_point": ("sun + ambient, pixel centres, 128 spp, no denoiser",
                             {"samples": 128, "denoise": False, "filter_width": 0.01}),
+            # lights that stay put in the world while the camera moves, as a room's lights do (the suite's
+            # sun is fixed to the camera): frame 0 of the clip is lit exactly as the suite lights it, then
+            # the sun keeps that world direction; ``world_two`` adds a second, weaker sun from the camera's
+            # right (at frame 0), so two shadows move across the objects between views
+            "world_sun": ("the suite's sun and ambient world, the sun fixed in the world (frame 0's direction)",
+                          {"world_lights": [{"type": "SUN", "direction_cam": [0.25, 1.0, 0.6], "strength": 3.5,
+                                             "angle_deg": 25.0}]}),
+            "world_two": ("two suns fixed in the world (the suite's and one from the right) and the ambient world",
+                          {"world_lights": [{"type": "SUN", "direction_cam": [0.25, 1.0, 0.6], "strength": 3.5,
+                                             "angle_deg": 25.0},
+                                            {"type": "SUN", "direction_cam": [-0.9, 0.5, 0.2], "strength": 2.0,
+                                             "angle_deg": 10.0}]}),
             # a control, not evidence: the refiner's own fast renderer (the inverse crime on purpose). A
             # rest left here belongs to the cost itself, not to how Blender forms the image
             # (``fast``: a bench_inverse_crime.render_control mode; ``noise_sigma``: sensor noise on top)
@@ -85,6 +97,8 @@ def render_variant(spec, models: dict, root: Path, frames: list[int], light: dic
         frames_out = ((f.im_id, render_control(sc, f, gl, light["fast"], 4) if sigma == 0.0 else
                        render_frame_fast(sc, f, gl, noise_sigma=sigma, rng=rng)[0], render_frame_fast(sc, f, gl)[1])
                       for f in sc.frames)
+    elif light.get("world_lights"):
+        frames_out = _render_world_lit(sc, root, light)
     else:
         frames_out = render_blender(sc, root / "models", root / "work", **{"samples": 12, **light})
     for im_id, rgb, depth in frames_out:
@@ -93,6 +107,37 @@ def render_variant(spec, models: dict, root: Path, frames: list[int], light: dic
                            gt_info=info)
     writer.close()
     return root
+
+
+def world_fixed_lights(lights_cam0: list, T_w2c_0: np.ndarray, T_w2c: np.ndarray) -> list:
+    """Blender light specs for a camera at ``T_w2c`` of lights whose travel directions
+    (``direction_cam``) are given in the camera at ``T_w2c_0`` and stay fixed in the world."""
+    R = np.asarray(T_w2c, np.float64)[:3, :3] @ np.asarray(T_w2c_0, np.float64)[:3, :3].T
+    return [{**spec, "direction_cam": (R @ np.asarray(spec["direction_cam"], np.float64)).tolist()}
+            for spec in lights_cam0]
+
+
+def _render_world_lit(sc, root: Path, light: dict):
+    """(im_id, rgb, depth) of every frame of ``sc`` rendered by Blender with ``light["world_lights"]``
+    fixed in the world (one Blender job per frame, since the suite's generator lights a job once);
+    the sensor noise is drawn per frame here, as the suite draws it per frame."""
+    import copy
+
+    from ycbvss.pipeline.blender_scene import render_blender
+
+    rest = {k: v for k, v in light.items() if k != "world_lights"}
+    sigma = float(rest.pop("noise_sigma", 1.5))
+    rng = np.random.default_rng(sc.seed + 7)
+    T0 = sc.frames[0].T_w2c
+    for f in sc.frames:
+        one = copy.copy(sc)
+        one.frames = [f]
+        lights = world_fixed_lights(light["world_lights"], T0, f.T_w2c)
+        for im_id, rgb, depth in render_blender(one, root / "models", root / "work" / f"{f.im_id:06d}",
+                                                **{"samples": 12, **rest, "lights": lights, "noise_sigma": 0.0}):
+            if sigma > 0:
+                rgb = np.clip(np.round(rgb + rng.normal(0, sigma, rgb.shape)), 0, 255).astype(np.uint8)
+            yield im_id, rgb, depth
 
 
 def bias_from_gt(root: Path, spec, models: dict, opts: dict) -> dict:
