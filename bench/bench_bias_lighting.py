@@ -98,7 +98,7 @@ def render_variant(spec, models: dict, root: Path, frames: list[int], light: dic
                        render_frame_fast(sc, f, gl, noise_sigma=sigma, rng=rng)[0], render_frame_fast(sc, f, gl)[1])
                       for f in sc.frames)
     elif light.get("world_lights"):
-        frames_out = _render_world_lit(sc, root, light)
+        frames_out = _render_world_lit(sc, root, light, gl)
     else:
         frames_out = render_blender(sc, root / "models", root / "work", **{"samples": 12, **light})
     for im_id, rgb, depth in frames_out:
@@ -117,27 +117,41 @@ def world_fixed_lights(lights_cam0: list, T_w2c_0: np.ndarray, T_w2c: np.ndarray
             for spec in lights_cam0]
 
 
-def _render_world_lit(sc, root: Path, light: dict):
-    """(im_id, rgb, depth) of every frame of ``sc`` rendered by Blender with ``light["world_lights"]``
-    fixed in the world (one Blender job per frame, since the suite's generator lights a job once);
-    the sensor noise is drawn per frame here, as the suite draws it per frame."""
-    import copy
+def _render_world_lit(sc, root: Path, light: dict, renderer):
+    """(im_id, rgb, depth) of every frame of ``sc`` rendered as ``render_blender`` renders them (the
+    same per-frame Cycles seeds, compositing and sensor noise as the suite's frames), but lit by
+    ``light["world_lights"]`` fixed in the world: the suite's generator lights a whole job once, so
+    its job runner is swapped here, for this call only, for one Blender worker that is re-lit
+    before each frame."""
+    from ycbvss.pipeline import blender_scene
+    from ycbvss.synth import blender as sb
 
-    from ycbvss.pipeline.blender_scene import render_blender
+    T0 = sc.frames[0].T_w2c
+    lights = {f"{f.im_id:06d}": world_fixed_lights(light["world_lights"], T0, f.T_w2c) for f in sc.frames}
+
+    def render_job(job: dict, workers: int = 1, on_done=None) -> list:
+        settings = {k: job[k] for k in sb._SETTING_KEYS if k in job}
+        settings = {"width": 640, "height": 480, **settings, "threads": sb.default_workers()}
+        out = []
+        with sb.BlenderWorker() as w:
+            for fr in job["frames"]:
+                w.configure({**settings, "lights": lights[fr["id"]]})
+                r = w.request({"cmd": "render", "frame": fr, "meshes": job["meshes"],
+                               "seed": sb.frame_seed(int(job.get("seed", 0)), fr["id"])})
+                r.pop("warnings", None)
+                out.append(r)
+                if on_done is not None:
+                    on_done(r)
+        return out
 
     rest = {k: v for k, v in light.items() if k != "world_lights"}
-    sigma = float(rest.pop("noise_sigma", 1.5))
-    rng = np.random.default_rng(sc.seed + 7)
-    T0 = sc.frames[0].T_w2c
-    for f in sc.frames:
-        one = copy.copy(sc)
-        one.frames = [f]
-        lights = world_fixed_lights(light["world_lights"], T0, f.T_w2c)
-        for im_id, rgb, depth in render_blender(one, root / "models", root / "work" / f"{f.im_id:06d}",
-                                                **{"samples": 12, **rest, "lights": lights, "noise_sigma": 0.0}):
-            if sigma > 0:
-                rgb = np.clip(np.round(rgb + rng.normal(0, sigma, rgb.shape)), 0, 255).astype(np.uint8)
-            yield im_id, rgb, depth
+    original = blender_scene.render_job
+    blender_scene.render_job = render_job
+    try:
+        yield from blender_scene.render_blender(sc, root / "models", root / "work", renderer=renderer,
+                                                **{"samples": 12, **rest})
+    finally:
+        blender_scene.render_job = original
 
 
 def bias_from_gt(root: Path, spec, models: dict, opts: dict) -> dict:
