@@ -6,6 +6,8 @@ better) or as pure emission (``emission``: the texture's colour, no light at all
 the image formation and the cost itself). The rest is identical: geometry, textures, noise, camera,
 objects, GT. ``emission_point`` / ``suite_point``: Cycles sampling the pixel centres only (pixel filter
 0.01 px, many samples, no denoiser), the image formed as the fast renderer forms its templates.
+``world_sun`` / ``world_two``: lights fixed in the world instead of to the camera (the suite's sun held
+at frame 0's world direction; plus a second sun from the right), as a room lights a hand-held clip.
 Controls, not evidence (the inverse crime on purpose): ``fast``, ``fast_clean``, ``fast_flat``, ``fast_area``
 render the frames with the refiner's own fast renderer (shaded with noise, shaded without, the
 texture's colour only without noise, the same integrated over each pixel: ``bench_inverse_crime.py``);
