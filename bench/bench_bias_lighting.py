@@ -196,8 +196,8 @@ def main() -> None:
     for v in a.variants.split(","):
         name, light = VARIANTS[v]
         root = a.out / {"suite": "suite_lights"}.get(v, v)
-        if not (root / "models").is_dir():
-            shutil.copytree(a.out / "models_src" / "models", root / "models")
+        # every run: another --scene in the same --out brings models the first copy did not hold
+        shutil.copytree(a.out / "models_src" / "models", root / "models", dirs_exist_ok=True)
         render_variant(spec, models, root, frames, light)
         for terms in a.terms.split(","):
             results[(name, terms)] = bias_from_gt(root, spec, models, {**json.loads(a.options), **TERM_SETS[terms]})

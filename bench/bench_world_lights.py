@@ -55,8 +55,8 @@ def main(argv=None) -> int:
     specs = [by_id[int(x)] for x in a.scenes.split(",")]
     root = a.out / a.variant
     models = suite_models(a.dataset, a.out / "models_src", sorted({o for s in specs for o in s.obj_ids}))
-    if not (root / "models").is_dir():
-        shutil.copytree(a.out / "models_src" / "models", root / "models")
+    # every run: scenes added to an existing --out bring models the first copy did not hold
+    shutil.copytree(a.out / "models_src" / "models", root / "models", dirs_exist_ok=True)
     _, light = VARIANTS[a.variant]
     for spec in specs:
         render_variant(spec, models, root, rendered_frames(spec), light)
