@@ -91,6 +91,26 @@ def test_every_table_exists_and_parses(demo_run):
     assert len(ests) == 6 * 5
 
 
+def test_refined_poses_carry_the_refiners_status_and_confidence(demo_run):
+    """The BOP19 score of every refined pose is the refiner's confidence, not 1 (issue 9, section 5):
+    the per-object mean of the CSV's scores equals tables/status.csv's mean confidence, the statuses
+    cover every pose, and every pose > 10 mm ADD from the exact GT is flagged."""
+    from ycbvss.io.results import read_bop19_csv
+    out, s = demo_run
+    ests = read_bop19_csv(out / "poses" / "refined_poses.csv")
+    scores = np.array([e.score for e in ests])
+    assert np.all((scores >= 0.0) & (scores <= 1.0))
+    assert scores.max() < 1.0                          # a confidence, never the placeholder 1
+    rows = list(csv.DictReader(open(out / "tables" / "status.csv", newline="")))
+    by_label = {r[next(iter(r))]: r for r in rows}
+    assert int(float(by_label["all"]["poses"])) == len(ests) == sum(s["status"].values())
+    names = {1: "box_checker", 2: "box_plain", 3: "can_stripes", 4: "can_text", 5: "mug_plain"}
+    for oid, name in names.items():
+        sc = [e.score for e in ests if e.obj_id == oid]
+        assert abs(np.mean(sc) - float(by_label[name]["mean confidence"])) < 1e-3, name
+    assert by_label["all"]["of those flagged"] == by_label["all"]["ADD > 10 mm"]
+
+
 class _Refs(HTMLParser):
     def __init__(self):
         super().__init__()

@@ -175,6 +175,11 @@ def _print_summary(summary: dict, what: str, stages=None) -> None:
         print(f"initial poses: mean ADD {i['achieved_add_mm']:.2f} mm (target {i['target_add_mm']:g}), "
               f"mean PRJ {i['achieved_prj_px']:.2f} px (target {i['target_prj_px']:g})", file=out)
         print(f"refined (all terms): mean ADD {r['add_mm']:.3f} mm, mean PRJ {r['prj_px']:.3f} px", file=out)
+    if summary.get("status"):
+        c = summary["status"]
+        print(f"status of the refined poses: {c.get('converged', 0)} converged, {c.get('uncertain', 0)} uncertain, "
+              f"{c.get('failed', 0)} failed (per object: tables/status.md; the BOP19 score of "
+              f"poses/refined_poses.csv is each pose's confidence)", file=out)
     print(f"\n{what}: {summary['scenes'].__len__()} scene(s), {summary['frames']} frames, {summary['pairs']} "
           f"(view, object) pairs", file=out)
     times = dict(stages.times) if stages is not None else dict(summary.get("timings_s", {}))

@@ -113,10 +113,56 @@ def table_text(t) -> str:
 
 
 # ----------------------------------------------------------------------------- pose files
-def write_poses_csv(path: Path, poses: dict) -> Path:
-    ests = [Estimate(int(k[0]), int(k[1]), int(k[2]), 1.0, np.asarray(T)) for k, T in sorted(poses.items())]
+def write_poses_csv(path: Path, poses: dict, marks: dict | None = None) -> Path:
+    """``poses`` {(scene, im, obj): 4x4} as a BOP19 CSV. ``marks`` {(scene, im, obj): (status, confidence,
+    reason)} (:func:`ycbvss.pipeline.validate.refine_all`): each row's score is the refiner's confidence
+    (a failed pose scores <= 0.1), as ``ycbvss refine`` writes it; without marks (poses the refiner did
+    not make, e.g. the perturbed initial ones) the score is 1."""
+    def score(k) -> float:
+        return float(marks[k][1]) if marks is not None and k in marks else 1.0
+    ests = [Estimate(int(k[0]), int(k[1]), int(k[2]), score(k), np.asarray(T)) for k, T in sorted(poses.items())]
     write_bop19_csv(path, ests)
     return path
+
+
+STATUSES = ("converged", "uncertain", "failed")
+
+
+def status_counts(marks: dict) -> dict:
+    """{status: number of poses} over ``marks`` (every status of :data:`STATUSES`, zeros included)."""
+    out = {s: 0 for s in STATUSES}
+    for st, _, _ in marks.values():
+        out[st] = out.get(st, 0) + 1
+    return out
+
+
+def status_table(marks: dict, models: dict, errs: dict | None = None, caption: str = "") -> Table:
+    """Per object: poses, how many the refiner called ``converged`` / ``uncertain`` / ``failed``, their
+    mean confidence (the BOP19 score); with ``errs`` (per-object pose-set errors against exact GT, keys
+    and ``add_mm``) also the poses with ADD > 10 mm and how many of those were flagged (not
+    ``converged``). Last row: all poses."""
+    add = {}
+    for e in (errs or {}).values():
+        for k, a in zip(e["keys"], e["add_mm"]):
+            add[tuple(int(x) for x in k)] = float(a)
+    cols = ["poses", *STATUSES, "mean confidence"] + (["ADD > 10 mm", "of those flagged"] if errs is not None else [])
+    t = Table(cols, label_header="object", digits=3, caption=caption)
+
+    def row(keys) -> list:
+        ms = [marks[k] for k in keys]
+        v: list = [len(ms)] + [sum(1 for m in ms if m[0] == s) for s in STATUSES]
+        v.append(float(np.mean([m[1] for m in ms])) if ms else None)
+        if errs is not None:
+            far = [k for k in keys if add.get(tuple(int(x) for x in k), 0.0) > 10.0]
+            v += [len(far), sum(1 for k in far if marks[k][0] != "converged")]
+        return v
+
+    for o in sorted({k[-1] for k in marks}):
+        keys = sorted(k for k in marks if k[-1] == o)
+        t.rows.append(Row(models[o].label.rstrip("*") if o in models else str(o), row(keys),
+                          mark=bool(getattr(models.get(o), "textureless", False))))
+    t.rows.append(Row("all", row(sorted(marks)), rule_before=True))
+    return t
 
 
 def write_errors_csv(path: Path, errs: dict) -> Path:
@@ -244,6 +290,12 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
     kf_extra = {f"{k} (keyframes)": v for k, v in (errs_kf or {}).items() if k not in ("initial", "using all")}
     (t4, t5, ts), files = _validation_tables(out / "tables", errs, errs_kf, kf_extra, models, pr, n_pairs)
     files += _validation_pose_files(out / "poses", pr, refined, {**errs, **kf_extra})
+    marks = refined.get("_marks", {}).get("using all", {})
+    t_st = status_table(marks, models, errs["using all"],
+                        caption="Status and confidence the refiner gave each pose (all terms); the confidence is the "
+                                "score of poses/refined_poses.csv (BOP19). Against the exact GT: poses with ADD > 10 mm "
+                                "and how many of them are flagged (uncertain or failed).")
+    files += write_tables(t_st, out / "tables", "status")
     curve_paths = _curves(out / "figures", errs, models)
     ov = _overlays(out / "figures", scenes, models, {"initial": pr.poses, "refined": refined["using all"]}, gt,
                    opts.overlays, originals, image_label="YCBV-SS" if not opts.gt_exact else "rendered")
@@ -258,6 +310,7 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
         "refined": m_ref,
         "variants_keyframes": {v: means(e) for v, e in (errs_kf or {}).items()},
         "refine_stats": {v: {str(s): d for s, d in st.items()} for v, st in refined["_stats"].items()},
+        "status": status_counts(marks),
         "refine_options": options_to_json(getattr(opts, "refine_options", None)),
         "timings_s": dict(stages.times), **(opts.extra_info or {}),
     }
@@ -269,6 +322,7 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
     if summary["refine_options"]:
         info.append(("refiner options (--options)", json.dumps(summary["refine_options"], sort_keys=True)))
     sections = _validation_sections(t4, t5, ts, curve_paths, ov, timings_table(stages))
+    sections.insert(1, ("Status and confidence of the refined poses", table_html(t_st)))
     summary_path = out / "summary.json"
     write_json_atomic(summary_path, summary)
     files.append(summary_path)
@@ -276,6 +330,7 @@ def write_validation_outputs(out: Path, opts, scenes, models, gt, Ks, pr, refine
     summary["report"] = str(report)
     summary["table4_md"] = table_text(t4)
     summary["table5_md"] = table_text(t5) if t5 is not None else ""
+    summary["status_md"] = table_text(t_st)
     summary["files"] = [str(p) for p in files] + [str(report)]
     return summary
 
@@ -303,11 +358,13 @@ def _validation_tables(tdir: Path, errs: dict, errs_kf: dict | None, kf_extra: d
 
 def _validation_pose_files(pdir: Path, pr, refined: dict, all_errs: dict) -> list[Path]:
     """Initial and refined poses of every variant as BOP19 CSVs, and the per-pose errors CSV."""
+    marks = refined.get("_marks", {})
     files = [write_poses_csv(pdir / "initial_poses.csv", pr.poses),
-             write_poses_csv(pdir / "refined_poses.csv", refined["using all"])]
+             write_poses_csv(pdir / "refined_poses.csv", refined["using all"], marks.get("using all"))]
     for v in refined:
-        if v not in ("using all", "_stats"):
-            files.append(write_poses_csv(pdir / f"refined_{v.replace('/', '').replace(' ', '_')}.csv", refined[v]))
+        if v not in ("using all", "_stats", "_marks"):
+            files.append(write_poses_csv(pdir / f"refined_{v.replace('/', '').replace(' ', '_')}.csv", refined[v],
+                                         marks.get(v)))
     files.append(write_errors_csv(pdir / "errors_per_pose.csv", all_errs))
     return files
 
@@ -338,8 +395,12 @@ def write_real_outputs(out: Path, opts, scenes, models, orig, Ks, refined, diff,
     t.rows.append(Row("paper: YCBV original vs refined", list(ref), rule_before=True))
     files += write_tables(t, tdir, "original_vs_refined")
     files.append(write_poses_csv(pdir / "original_poses.csv", orig))
-    files.append(write_poses_csv(pdir / "refined_poses.csv", refined["using all"]))
+    marks = refined.get("_marks", {}).get("using all", {})
+    files.append(write_poses_csv(pdir / "refined_poses.csv", refined["using all"], marks))
     files.append(write_errors_csv(pdir / "differences_per_pose.csv", {"original_vs_refined": diff}))
+    t_st = status_table(marks, models, caption="Status and confidence the refiner gave each refined pose; the "
+                                               "confidence is the score of poses/refined_poses.csv (BOP19).")
+    files += write_tables(t_st, tdir, "status")
     ov = _overlays(fdir, scenes, models, {"original": orig, "refined": refined["using all"]}, None, opts.overlays,
                    {}, image_label="real frame")
     files += ov
@@ -349,6 +410,7 @@ def write_real_outputs(out: Path, opts, scenes, models, orig, Ks, refined, diff,
                "scenes": [sc.scene_id for sc in scenes], "frames": sum(len(sc.frames) for sc in scenes),
                "pairs": len(orig), "original_vs_refined": m,
                "refine_stats": {v: {str(s): d for s, d in st.items()} for v, st in refined["_stats"].items()},
+               "status": status_counts(marks),
                "refine_options": options_to_json(getattr(opts, "refine_options", None)),
                "timings_s": dict(stages.times)}
     write_json_atomic(out / "summary.json", summary)
@@ -357,12 +419,13 @@ def write_real_outputs(out: Path, opts, scenes, models, orig, Ks, refined, diff,
                                              f"{len(scenes)} / {summary['frames']} / {len(orig)}"),
             ("original vs refined", f"mean |dt| = ({m['tx_mm']:.2f}, {m['ty_mm']:.2f}, {m['tz_mm']:.2f}) mm, "
                                     f"R {m['r_deg']:.2f} deg, PRJ {m['prj_px']:.2f} px")]
-    sections = [("Original vs refined (Table 4, last row)", table_html(t))]
+    sections = [("Original vs refined (Table 4, last row)", table_html(t)),
+                ("Status and confidence of the refined poses", table_html(t_st))]
     if ov:
         sections.append(("Overlays (orange: original annotation; green: refined)",
                          "".join(f"<p>{html.escape(p.name)}</p>{_img_tag(p, p.name)}" for p in ov)))
     sections.append(("Timings", table_html(tt)))
     report = write_html(out / "report.html", opts.title + " (real frames)", info, sections, files)
-    summary.update(report=str(report), table4_md=table_text(t), table5_md="",
+    summary.update(report=str(report), table4_md=table_text(t), table5_md="", status_md=table_text(t_st),
                    files=[str(p) for p in files] + [str(report)])
     return summary

@@ -126,21 +126,25 @@ def keyframe_scene(sc: Scene, step: int) -> Scene:
 
 
 def _refine_job(vname: str, sc: Scene, models: dict, init: dict, kw: dict, opts: "ValidateOptions") -> tuple:
-    """One refinement run (a variant on a scene); returns (variant, scene_id, poses, stats)."""
+    """One refinement run (a variant on a scene); returns (variant, scene_id, poses, stats, marks) with
+    marks {(scene, im, obj): (status, confidence, reason)}, the refiner's own (its covariance is
+    computed, so the status rule reads the pose's sigma as ``ycbvss refine`` does)."""
     step = opts.keyframe_step or auto_keyframe_step(len(sc.frames))
     run_sc = sc if vname == "using all" else keyframe_scene(sc, step)
     run_step = step if vname == "using all" else 1
     kw = {**opts.refine_options, **kw}
     if opts.max_iters:
         kw["max_iters"] = int(opts.max_iters)
-    ro = RefineOptions(keyframe_step=run_step if run_step > 1 else 0, seed=opts.seed, compute_uncertainty=False, **kw)
+    ro = RefineOptions(keyframe_step=run_step if run_step > 1 else 0, seed=opts.seed, **kw)
     ims = {f.im_id for f in run_sc.frames}
     sc_init = {(k[1], k[2]): T for k, T in init.items() if k[0] == sc.scene_id and k[1] in ims}
     t0 = time.perf_counter()
     res = refine_scene(run_sc, models, sc_init, ro)
     poses = {(sc.scene_id, im, oid): np.asarray(T, np.float64) for (im, oid), T in res.poses.items()}
+    marks = {(sc.scene_id, im, oid): (res.status.get((im, oid), "failed"), float(res.confidence.get((im, oid), 0.0)),
+                                      res.reasons.get((im, oid), "")) for (im, oid) in res.poses}
     return vname, sc.scene_id, poses, {"time_s": time.perf_counter() - t0, "converged": bool(res.converged),
-                                       "keyframe_step": step, "n_frames": len(run_sc.frames)}
+                                       "keyframe_step": step, "n_frames": len(run_sc.frames)}, marks
 
 
 def _refine_jobs_child(jobs: list, models: dict, init: dict, opts: "ValidateOptions") -> list:
@@ -159,7 +163,8 @@ def _portable_models(models: dict) -> dict | None:
 
 def refine_all(scenes: list[Scene], models: dict, init: dict, variants: dict, opts: ValidateOptions) -> dict:
     """Run the refiner for every variant on every scene. Returns {variant: {(scene, im, obj): 4x4}}
-    plus ``"_stats"``: {variant: {scene_id: stats}}.
+    plus ``"_stats"``: {variant: {scene_id: stats}} and ``"_marks"``: {variant: {(scene, im, obj):
+    (status, confidence, reason)}}.
 
     "using all" runs on all frames (keyframes jointly, the other frames camera-only); the ablation
     variants run on the keyframes only (the joint stage, which is where the terms matter) -- their
@@ -167,6 +172,7 @@ def refine_all(scenes: list[Scene], models: dict, init: dict, variants: dict, op
     second process while this one runs "using all" (the refiner is mostly single-threaded)."""
     out: dict = {v: {} for v in variants}
     stats: dict = {v: {} for v in variants}
+    marks: dict = {v: {} for v in variants}
     main_jobs = [("using all", sc, variants["using all"]) for sc in scenes if "using all" in variants]
     side_jobs = [(v, sc, variants[v]) for v in variants if v != "using all" for sc in scenes]
     bar = progress(total=len(main_jobs) + len(side_jobs), desc="refine", unit="run")
@@ -182,21 +188,24 @@ def refine_all(scenes: list[Scene], models: dict, init: dict, variants: dict, op
     try:
         for vname, sc, kw in (main_jobs if fut is not None else main_jobs + side_jobs):
             bar.set_postfix_str(f"{vname}, scene {sc.scene_id}" + (" (+ ablations in parallel)" if fut else ""))
-            v, sid, poses, st = _refine_job(vname, sc, models, init, kw, opts)
+            v, sid, poses, st, mk = _refine_job(vname, sc, models, init, kw, opts)
             out[v].update(poses)
             stats[v][sid] = st
+            marks[v].update(mk)
             bar.update(1)
         if fut is not None:
             bar.set_postfix_str("waiting for the ablation runs")
-            for v, sid, poses, st in fut.result():
+            for v, sid, poses, st, mk in fut.result():
                 out[v].update(poses)
                 stats[v][sid] = st
+                marks[v].update(mk)
                 bar.update(1)
     finally:
         bar.close()
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
     out["_stats"] = stats
+    out["_marks"] = marks
     return out
 
 
