@@ -14,7 +14,9 @@ contour samples along their outward normals are fitted as ``t_k = n_k . s + b + 
 - ``B`` linear-light colour edges, the binary (geometric) contour;
 - ``C`` linear-light opponent channels, the binary contour;
 - ``D`` opponent channels with the lit appearance prediction made in that space (the prediction's
-  sRGB encoding swapped for the opponent transform while the candidates are made).
+  sRGB encoding swapped for the opponent transform while the candidates are made);
+- ``E`` linear-light colour edges with the lit appearance prediction made in linear light (the
+  prediction's sRGB encoding swapped for the identity): ``A`` without the encoding on either side.
 
 Printed: per space the rms of |s|, of b, the per-sample rest and, over objects seen in >= 3 views,
 the rms of each object's mean shift (what its pose absorbs); per object that mean shift's length.
@@ -35,7 +37,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_contour_offsets import add_view_args, gt_views, mean_and_scatter, shift_fit, shift_stats  # noqa: E402
 
-SPACES = "ABCD"
+SPACES = "ABCDE"
 
 
 def opponent(lin: np.ndarray) -> np.ndarray:
@@ -53,13 +55,14 @@ def opponent_field(image: np.ndarray, sigma_px: float):
 
 
 @contextmanager
-def opponent_prediction():
-    """Within this block ``refine.contour_match.appearance_offsets`` forms its 1-D profiles in the
-    opponent space (its final sRGB encoding swapped for :func:`opponent`). A bench-only swap."""
+def prediction_space(transform):
+    """Within this block ``refine.contour_match.appearance_offsets`` forms its 1-D profiles in another
+    space: its final sRGB encoding of the linear-light profiles is swapped for ``transform`` (e.g.
+    :func:`opponent`, or the identity for linear light). A bench-only swap."""
     import ycbvss.refine.contour_match as cm
 
     orig = cm.linear_to_srgb
-    cm.linear_to_srgb = opponent
+    cm.linear_to_srgb = transform
     try:
         yield
     finally:
@@ -82,12 +85,15 @@ def main(argv=None) -> int:
         lit = lit_template(vr.color, vr.normal, vr.instance, img)
         c_lit = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True, image=img, appearance_color=lit)
         c_bin = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True)
-        with opponent_prediction():
+        with prediction_space(opponent):
             c_opp = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True, image=img, appearance_color=lit)
+        with prediction_space(lambda p: p):
+            c_lin = view_edge_candidates(vr, blur_sigma_px=a.sigma_px, normals=True, image=img, appearance_color=lit)
         opp = opponent_field(img, a.sigma_px)
         spaces = {"A": (edge_field(img, a.sigma_px, colour=True), c_lit),
                   "B": (edge_field(img, a.sigma_px, colour=True, linear=True), c_bin),
-                  "C": (opp, c_bin), "D": (opp, c_opp)}
+                  "C": (opp, c_bin), "D": (opp, c_opp),
+                  "E": (edge_field(img, a.sigma_px, colour=True, linear=True), c_lin)}
         for lab0, oid in enumerate(oids):
             names[oid] = getattr(models[oid], "name", None) or str(oid)
             for k, (fld, c) in spaces.items():
@@ -106,7 +112,7 @@ def main(argv=None) -> int:
         n, mr, ar = mean_and_scatter([np.asarray(v)[:, :2] for v in per[k].values()])
         print(k, " ".join(f"{x:.3f}" for x in shift_stats(allv)), f"| {n} {mr[0]:.3f} / {mr[1]:.3f}",
               f"{ar[0]:.3f} / {ar[1]:.3f} | {allv[:, 2].mean():+.3f}")
-    print("per object, the length of its mean shift over its views (px), A / B / C / D, and its groups")
+    print("per object, the length of its mean shift over its views (px), A / B / C / D / E, and its groups")
     for o in sorted(names):
         cells = []
         for k in SPACES:
