@@ -1471,7 +1471,9 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
                       worst_contour_px=quality[oid].get("contour_worst_px", float("nan")),
                       held_hidden=oid in held_hidden, drifting=oid in drifting,
                       view_shift_px=float(view_shift_px[i]) if view_shift_px is not None else float("nan"),
-                      unsupported_mm=quality[oid].get("unsupported_mm", float("nan")))
+                      unsupported_mm=quality[oid].get("unsupported_mm", float("nan")),
+                      silhouette_px2=tf.silhouette_px2 if tf else float("nan"),
+                      silhouette_label=tf.silhouette_label if tf else "")
         status[(im, oid)], confidence[(im, oid)], reasons[(im, oid)] = ps.status, ps.confidence, ps.reason
         quality[oid].setdefault("moved_mm", round(float(obj_move[0][j]), 4))
         quality[oid].setdefault("moved_deg", round(float(obj_move[1][j]), 4))
@@ -1483,6 +1485,9 @@ def _statuses(poses: dict, views: list, vidx: dict, obj_ids: list, sigma: dict, 
             quality[oid].setdefault("interior_ncc", round(float(tf.ncc), 4))
             quality[oid].setdefault("turn_fit_ncc", round(float(tf.fit), 4))
             quality[oid].setdefault("texture_share", round(float(tf.texture), 4))
+            if tf.silhouette_label:
+                quality[oid].setdefault("turn_silhouette", tf.silhouette_label)
+                quality[oid].setdefault("turn_silhouette_px2", round(float(tf.silhouette_px2), 1))
     return status, confidence, reasons
 
 

@@ -39,7 +39,9 @@ image edges (``contour_px > FAIL_PX``; both px thresholds are for 640-px-wide im
 and scale with the width); ``uncertain`` when the contour is loose (``> OK_PX``; in the median
 view or in the worst views), the calibrated ``sigma_add_mm`` exceeds ``SIGMA_OK_MM``, the object
 turned more than ``MAX_TURN_DEG`` from its initial pose (modulo symmetries), a copy of it turned 20-40 deg about a model axis fits the texture
-inside its silhouette better (:func:`ycbvss.refine.turn_check.turned_wrong`), a textured object
+inside its silhouette better (:func:`ycbvss.refine.turn_check.turned_wrong`), an untextured object
+turned 20-40 deg about its body's axis shows the same visible silhouette in every checked view
+(:func:`ycbvss.refine.turn_check.silhouette_ambiguous`), a textured object
 fits the texture inside its silhouette badly at the refined pose
 (:func:`ycbvss.refine.turn_check.texture_mismatch`), or its projected centre moved farther from the initial poses' than
 :func:`shift_limit_px` allows (median over views), the pose was still
@@ -65,7 +67,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .turn_check import texture_mismatch, turned_wrong
+from .turn_check import silhouette_ambiguous, texture_mismatch, turned_wrong
 
 CONTOUR_TRUNC_PX = 3.0
 OK_PX = 1.0             # contour thresholds at REF_WIDTH_PX; scaled with the image width
@@ -361,7 +363,8 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
              worst_contour_px: float = float("nan"), held_hidden: bool = False,
              interior_ncc: float = float("nan"), texture: float = float("nan"),
              drifting: bool = False, view_shift_px: float = float("nan"),
-             unsupported_mm: float = float("nan")) -> PoseStatus:
+             unsupported_mm: float = float("nan"), silhouette_px2: float = float("nan"),
+             silhouette_label: str = "") -> PoseStatus:
     """Status and confidence of one pose (see the module docstring for the rules). ``contour_px``
     is measured in an image ``width_px`` wide; the thresholds ``OK_PX`` / ``FAIL_PX`` hold at
     ``REF_WIDTH_PX`` (YCB-V's 640 px) and scale with the width, so an offset means the same
@@ -382,7 +385,11 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
     camera is off and every pose of the view is uncertain, confidence halved.
     ``unsupported_mm``: how far (mm) the object is from touching the table or any other object at
     the refined poses (:mod:`ycbvss.refine.support`; NaN: not measured); above ``UNSUPPORTED_MM``
-    it rests on nothing: uncertain, confidence halved."""
+    it rests on nothing: uncertain, confidence halved. ``silhouette_px2`` / ``silhouette_label``: for
+    an untextured object, the turn about its body's axis whose visible silhouette stays closest to the
+    refined pose's in every checked view, and that change (:func:`ycbvss.refine.turn_check.same_silhouette_turn`);
+    below ``SAME_SILHOUETTE_PX2`` nothing in its images fixes that turn: uncertain, confidence halved
+    (:func:`ycbvss.refine.turn_check.silhouette_ambiguous`)."""
     if numerical_failure:
         return PoseStatus("failed", 0.0, "numerical failure")
     reasons = []
@@ -422,6 +429,10 @@ def classify(contour_px: float, sig_add_mm: float | None, moved_add_mm: float, o
         conf *= 0.5
     elif texture_mismatch(interior_ncc, texture):
         reasons.append(f"the texture inside its silhouette does not match (NCC {interior_ncc:.2f})")
+        conf *= 0.5
+    if silhouette_ambiguous(silhouette_px2, texture):
+        reasons.append(f"turned {silhouette_label} it shows the same silhouette in every checked view "
+                       f"({silhouette_px2:.0f} px^2 differ) and it has no texture to tell them apart")
         conf *= 0.5
     if held_hidden:
         conf *= 0.5

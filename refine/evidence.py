@@ -16,7 +16,8 @@ from .shading import lit_template
 from .templates import ViewRender, _subpixel_K, composite, get_renderer, mesh_key, render_view
 from .threads import view_pool as _view_pool
 from .view_shift import REACH_PX, object_shift_px, view_shift_px
-from .turn_check import best_turn, interior_mask, interior_ncc, texture_share, turn_transforms, views_ncc
+from .turn_check import (TEXTURED_MIN, axis_turn_transforms, best_turn, interior_mask, interior_ncc, revolution_axes,
+                         same_silhouette_turn, silhouette_change_px2, texture_share, turn_transforms, views_ncc)
 
 if TYPE_CHECKING:
     from .bundle import _SceneImages
@@ -169,6 +170,11 @@ class _TurnFit(NamedTuple):
     ncc: float
     fit: float
     texture: float = float("nan")   # the refined pose's template texture share (turn_check.texture_share)
+    # untextured objects only: the turn about the body's axis whose visible silhouette stays closest to
+    # the refined pose's in every checked view, and that change (px^2 at 640 px,
+    # turn_check.same_silhouette_turn); "" / NaN when not measured
+    silhouette_label: str = ""
+    silhouette_px2: float = float("nan")
 
 
 def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses: dict, syms: list,
@@ -180,7 +186,7 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
     renderer = get_renderer()
     n = len(views)
     idx = [int(i) for i in np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))]
-    turns, sphere = {}, {}
+    turns, sphere, axis_turns = {}, {}, {}
     for j, o in enumerate(obj_ids):
         if ok[j]:
             V = models[o].vertices_mm if models[o].path is not None else np.asarray(models[o].mesh.vertices, np.float64)
@@ -189,8 +195,10 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
             # only the evaluation's symmetries (ADD-S objects) are skipped: a geometric symmetry of a
             # textured object (the tuna can's axis) is no symmetry of its appearance
             turns[j] = turn_transforms(c, syms[j] if models[o].symmetric else None)
+            axis_turns[j] = axis_turn_transforms(revolution_axes(V), syms[j] if models[o].symmetric else None)
     base: dict[int, list] = {j: [] for j in turns}
     alt: dict[int, dict[str, list]] = {j: {lab: [] for lab, _ in turns[j]} for j in turns}
+    sil: dict[int, dict[str, list]] = {j: {lab: [] for lab, _ in axis_turns[j]} for j in turns}
     imgs.keep(idx)
     for i in idx:
         v = views[i]
@@ -218,12 +226,22 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
                 out = renderer.render(K, W, H, [(key, T)], outputs=("depth", "color"))
                 return _view_pool().submit(_turn_ncc, crop, mag_c, out.depth_mm, out.color,
                                            None if occ is None else occ.depth_mm, None if occ is None else occ.color,
-                                           texture)
+                                           texture), out
 
             # renders here (the GL thread), the NCCs on the view pool; results collected below
-            base[j].append(fit(P[j], texture=True))
+            f0, b0 = fit(P[j], texture=True)
+            base[j].append(f0)
             for lab, A in turns[j]:
-                alt[j][lab].append(fit(P[j] @ A))
+                alt[j][lab].append(fit(P[j] @ A)[0])
+            # an untextured object: its silhouette turned about its body's axis (turn_check)
+            occ_d = None if occ is None else occ.depth_mm
+            tm, inner = _template_magnitude(crop, b0.depth_mm, b0.color, occ_d, None if occ is None else occ.color)
+            share = texture_share(tm, inner, erode_px=0)
+            if np.isfinite(share) and share < TEXTURED_MIN:
+                vis0 = _visible(b0.depth_mm, occ_d)
+                for lab, A in axis_turns[j]:
+                    d = renderer.render(K, W, H, [(key, P[j] @ A)], outputs=("depth",)).depth_mm
+                    sil[j][lab].append(silhouette_change_px2(vis0, _visible(d, occ_d), v.width))
     base_res = {j: np.asarray([f.result() for f in fs], float).reshape(-1, 3) for j, fs in base.items()}  # (NCC, texture, px) per view
     alt = {j: {lab: [f.result()[0] for f in fs] for lab, fs in d.items()} for j, d in alt.items()}
     imgs.keep([])
@@ -235,8 +253,19 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
     for j in turns:
         b, t, n_px = base_res[j][:, 0], base_res[j][:, 1], base_res[j][:, 2]
         gain, lab, fit = best_turn(b, alt[j])
-        out[obj_ids[j]] = _TurnFit(gain, lab, dict(turns[j]).get(lab), views_ncc(b, n_px), fit, finite_mean(t))
+        s_lab, s_px2 = same_silhouette_turn(sil[j])
+        out[obj_ids[j]] = _TurnFit(gain, lab, dict(turns[j]).get(lab), views_ncc(b, n_px), fit, finite_mean(t),
+                                   s_lab, s_px2)
     return out
+
+
+def _visible(depth_mm: np.ndarray, occ_depth_mm: np.ndarray | None) -> np.ndarray:
+    """The object's visible pixels (H, W bool): rendered (``depth_mm`` > 0) and nearer than the other
+    objects (``occ_depth_mm``, 0 = none; None: no others), as :func:`_template_magnitude` pastes it."""
+    obj = depth_mm > 0
+    if occ_depth_mm is not None:
+        obj &= (occ_depth_mm <= 0) | (depth_mm < occ_depth_mm)
+    return obj
 
 
 def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: np.ndarray,

@@ -56,6 +56,20 @@ FIT_MIN = 0.3
 NCC_TEXTURED_MIN = 0.25
 TEXTURE_MAG = 2.0
 TEXTURED_MIN = 0.1
+# An untextured object (texture share < TEXTURED_MIN) shows its pose only through its silhouette. A
+# plain mug whose handle is hidden in every view, by its body or its neighbours, turns about its
+# body's axis without changing what the images show. So for such an object the visible silhouette
+# of copies turned by TURNS_DEG about each model axis through the body's axis of revolution
+# (:func:`revolution_axes`, not the bounding box's centre, which a handle moves off it) is compared
+# with the refined pose's in the checked views (the other objects occluding it as they do): the
+# pixels where exactly one of the two covers, opened by a 3 x 3 square (a sliver along the outline is
+# tessellation, not a part that moved), in px^2 at REF_WIDTH_PX. When some turn leaves less than
+# SAME_SILHOUETTE_PX2 in every view, nothing in the images fixes that turn and the pose is uncertain,
+# whatever its covariance says. `ycbvss demo --quick --renderer fast --seed 9`: the plain mug, its
+# handle hidden in all 6 views, ended 17 deg off about its axis (ADD 11 mm) with sigma_ADD 1.7-1.9 mm,
+# 4 of its 6 poses `converged`.
+SAME_SILHOUETTE_PX2 = 8.0
+REF_WIDTH_PX = 640
 
 
 def turn_transforms(centre_mm: np.ndarray, syms: np.ndarray, turns_deg=TURNS_DEG,
@@ -148,3 +162,70 @@ def turned_wrong(gain: float, fit: float) -> bool:
     """Whether a turned copy with mean gain ``gain`` and mean fit ``fit`` (NCC, :func:`best_turn`)
     shows the refined pose turned wrong: ``gain > GAIN_MIN`` and ``fit >= FIT_MIN``."""
     return bool(np.isfinite(gain) and np.isfinite(fit) and gain > GAIN_MIN and fit >= FIT_MIN)
+
+
+def revolution_axes(vertices_mm: np.ndarray, trim: float = 0.3, iters: int = 3) -> np.ndarray:
+    """Per model axis k (x, y, z), a point (mm) on the line along that axis about which the object is
+    most nearly a body of revolution: the centre of a circle fitted (algebraically, then refitted
+    ``iters`` times without the ``trim`` share of the vertices farthest from it, e.g. a mug's handle)
+    to the vertices projected on the plane across axis k, at the bounding box's centre along k.
+    Returns (3, 3), row k the point for axis k."""
+    V = np.asarray(vertices_mm, float)
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    out = np.tile(0.5 * (lo + hi), (3, 1))
+    for k in range(3):
+        a, b = [i for i in range(3) if i != k]
+        P = V[:, [a, b]]
+        keep = np.ones(len(P), bool)
+        c = P.mean(axis=0)
+        for _ in range(iters + 1):
+            Q = P[keep]
+            A = np.c_[2.0 * Q, np.ones(len(Q))]
+            sol = np.linalg.lstsq(A, (Q * Q).sum(axis=1), rcond=None)[0]
+            c = sol[:2]
+            r = np.sqrt(max(sol[2] + c @ c, 0.0))
+            res = np.abs(np.linalg.norm(P - c, axis=1) - r)
+            keep = res <= np.quantile(res, 1.0 - trim)
+        out[k, a], out[k, b] = c
+    return out
+
+
+def axis_turn_transforms(points_mm: np.ndarray, syms: np.ndarray, turns_deg=TURNS_DEG,
+                         sym_tol_deg: float = SYM_TOL_DEG) -> list[tuple[str, np.ndarray]]:
+    """As :func:`turn_transforms`, each model axis k turned about through ``points_mm[k]``
+    (:func:`revolution_axes`) instead of one centre."""
+    out = []
+    for k, name in enumerate("xyz"):
+        out += [(lab, A) for lab, A in turn_transforms(points_mm[k], syms, turns_deg, sym_tol_deg)
+                if lab.endswith(f"model {name}")]
+    return out
+
+
+def silhouette_change_px2(base: np.ndarray, turned: np.ndarray, width_px: int,
+                          ref_width_px: int = REF_WIDTH_PX) -> float:
+    """The area (px^2 at ``ref_width_px``) where exactly one of two visible silhouettes (H, W bool)
+    covers a pixel, opened by a 3 x 3 square so slivers along the outline do not count."""
+    x = (np.asarray(base, bool) ^ np.asarray(turned, bool)).astype(np.uint8)
+    x = cv2.morphologyEx(x, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    return float(np.count_nonzero(x)) * (ref_width_px / float(width_px)) ** 2
+
+
+def same_silhouette_turn(changes: dict[str, list[float]]) -> tuple[str, float]:
+    """Over the turns ``changes`` (label -> per-view :func:`silhouette_change_px2`), the turn whose
+    largest change over its views is smallest, and that change; ("", NaN) when none is measured."""
+    label, best = "", float("nan")
+    for lab, vals in changes.items():
+        v = np.asarray(vals, float)
+        v = v[np.isfinite(v)]
+        if len(v) and (not np.isfinite(best) or v.max() < best):
+            label, best = lab, float(v.max())
+    return label, best
+
+
+def silhouette_ambiguous(change_px2: float, texture: float) -> bool:
+    """Whether an untextured object's (``texture`` < TEXTURED_MIN, :func:`texture_share`) turn is not
+    fixed by its images: a turned copy's visible silhouette differs from the refined pose's by less
+    than SAME_SILHOUETTE_PX2 in every checked view (``change_px2``, :func:`same_silhouette_turn`)."""
+    return bool(np.isfinite(change_px2) and np.isfinite(texture) and texture < TEXTURED_MIN
+                and change_px2 < SAME_SILHOUETTE_PX2)
+
