@@ -18,6 +18,11 @@ within 3 mm median ADD had all turns at least 0.07 NCC worse (median 0.51, 54 of
 the tuna cans reported ``converged`` 40 deg off about their axis from PRJ 20 px had a turn
 0.27-0.34 better.
 
+An untextured object has no interior texture to judge, only its silhouette: for it the same loop
+also turns the object about its body's axis of revolution (:func:`revolution_axes`) and compares the
+visible silhouettes (:func:`silhouette_change_px2`, :func:`silhouette_ambiguous`), so a turn that
+nothing in the images shows (a plain mug's hidden handle) leaves the pose uncertain.
+
 Pure functions here; the rendering loop is in :func:`ycbvss.refine.evidence._turn_gains`.
 """
 from __future__ import annotations
