@@ -186,7 +186,7 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
     renderer = get_renderer()
     n = len(views)
     idx = [int(i) for i in np.unique(np.round(np.linspace(0, n - 1, min(n_views, n))).astype(int))]
-    turns, sphere, axis_turns = {}, {}, {}
+    turns, sphere, verts = {}, {}, {}
     for j, o in enumerate(obj_ids):
         if ok[j]:
             V = models[o].vertices_mm if models[o].path is not None else np.asarray(models[o].mesh.vertices, np.float64)
@@ -195,10 +195,12 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
             # only the evaluation's symmetries (ADD-S objects) are skipped: a geometric symmetry of a
             # textured object (the tuna can's axis) is no symmetry of its appearance
             turns[j] = turn_transforms(c, syms[j] if models[o].symmetric else None)
-            axis_turns[j] = axis_turn_transforms(revolution_axes(V), syms[j] if models[o].symmetric else None)
+            verts[j] = V
     base: dict[int, list] = {j: [] for j in turns}
     alt: dict[int, dict[str, list]] = {j: {lab: [] for lab, _ in turns[j]} for j in turns}
-    sil: dict[int, dict[str, list]] = {j: {lab: [] for lab, _ in axis_turns[j]} for j in turns}
+    # untextured objects only, made when first needed: turns about the body's axis and their silhouette changes
+    axis_turns: dict[int, list] = {}
+    sil: dict[int, dict[str, list]] = {j: {} for j in turns}
     imgs.keep(idx)
     for i in idx:
         v = views[i]
@@ -221,27 +223,29 @@ def _turn_gains(views: list, models: dict, obj_ids: list, ok: np.ndarray, poses:
             # the others once, the object alone per turn; the z-test of the two is done per pixel
             # in _turn_ncc (the same picture as drawing them together, but each turn draws one mesh)
             occ = (renderer.render(K, W, H, others, outputs=("depth", "color")) if others else None)
+            occ_d, occ_c = (None, None) if occ is None else (occ.depth_mm, occ.color)
 
-            def fit(T, texture=False):
+            def fit(T):
                 out = renderer.render(K, W, H, [(key, T)], outputs=("depth", "color"))
-                return _view_pool().submit(_turn_ncc, crop, mag_c, out.depth_mm, out.color,
-                                           None if occ is None else occ.depth_mm, None if occ is None else occ.color,
-                                           texture), out
+                return _view_pool().submit(_turn_ncc, crop, mag_c, out.depth_mm, out.color, occ_d, occ_c)
 
-            # renders here (the GL thread), the NCCs on the view pool; results collected below
-            f0, b0 = fit(P[j], texture=True)
-            base[j].append(f0)
-            for lab, A in turns[j]:
-                alt[j][lab].append(fit(P[j] @ A)[0])
-            # an untextured object: its silhouette turned about its body's axis (turn_check)
-            occ_d = None if occ is None else occ.depth_mm
-            tm, inner = _template_magnitude(crop, b0.depth_mm, b0.color, occ_d, None if occ is None else occ.color)
+            # renders here (the GL thread), the NCCs on the view pool; results collected below. The
+            # refined pose's template picture is made here: its texture share decides the silhouette turns
+            b0 = renderer.render(K, W, H, [(key, P[j])], outputs=("depth", "color"))
+            tm, inner = _template_magnitude(crop, b0.depth_mm, b0.color, occ_d, occ_c)
             share = texture_share(tm, inner, erode_px=0)
-            if np.isfinite(share) and share < TEXTURED_MIN:
+            base[j].append(_view_pool().submit(_base_ncc, mag_c, tm, inner, share))
+            for lab, A in turns[j]:
+                alt[j][lab].append(fit(P[j] @ A))
+            if np.isfinite(share) and share < TEXTURED_MIN:      # untextured: turned about its body's axis
+                if j not in axis_turns:
+                    axis_turns[j] = axis_turn_transforms(revolution_axes(verts[j]),
+                                                         syms[j] if models[obj_ids[j]].symmetric else None)
                 vis0 = _visible(b0.depth_mm, occ_d)
                 for lab, A in axis_turns[j]:
                     d = renderer.render(K, W, H, [(key, P[j] @ A)], outputs=("depth",)).depth_mm
-                    sil[j][lab].append(silhouette_change_px2(vis0, _visible(d, occ_d), v.width))
+                    sil[j].setdefault(lab, []).append(silhouette_change_px2(vis0, _visible(d, occ_d), v.width,
+                                                                            REF_WIDTH_PX))
     base_res = {j: np.asarray([f.result() for f in fs], float).reshape(-1, 3) for j, fs in base.items()}  # (NCC, texture, px) per view
     alt = {j: {lab: [f.result()[0] for f in fs] for lab, fs in d.items()} for j, d in alt.items()}
     imgs.keep([])
@@ -266,6 +270,12 @@ def _visible(depth_mm: np.ndarray, occ_depth_mm: np.ndarray | None) -> np.ndarra
     if occ_depth_mm is not None:
         obj &= (occ_depth_mm <= 0) | (depth_mm < occ_depth_mm)
     return obj
+
+
+def _base_ncc(mag_c: np.ndarray, tm: np.ndarray, inner: np.ndarray, share: float) -> tuple[float, float, int]:
+    """:func:`_turn_ncc`'s result with ``texture`` for a template picture already made (its gradient
+    magnitude ``tm``, visible interior ``inner`` and texture share ``share``)."""
+    return interior_ncc(mag_c, tm, inner, erode_px=0), share, int(inner.sum())
 
 
 def _turn_ncc(crop: np.ndarray, mag_c: np.ndarray, depth_mm: np.ndarray, color: np.ndarray,

@@ -68,13 +68,12 @@ TEXTURED_MIN = 0.1
 # (:func:`revolution_axes`, not the bounding box's centre, which a handle moves off it) is compared
 # with the refined pose's in the checked views (the other objects occluding it as they do): the
 # pixels where exactly one of the two covers, opened by a 3 x 3 square (a sliver along the outline is
-# tessellation, not a part that moved), in px^2 at REF_WIDTH_PX. When some turn leaves less than
+# tessellation, not a part that moved), in px^2 at 640 px (refine.confidence.REF_WIDTH_PX). When some turn leaves less than
 # SAME_SILHOUETTE_PX2 in every view, nothing in the images fixes that turn and the pose is uncertain,
 # whatever its covariance says. `ycbvss demo --quick --renderer fast --seed 9`: the plain mug, its
 # handle hidden in all 6 views, ended 17 deg off about its axis (ADD 11 mm) with sigma_ADD 1.7-1.9 mm,
 # 4 of its 6 poses `converged`.
 SAME_SILHOUETTE_PX2 = 8.0
-REF_WIDTH_PX = 640
 
 
 def turn_transforms(centre_mm: np.ndarray, syms: np.ndarray, turns_deg=TURNS_DEG,
@@ -206,8 +205,7 @@ def axis_turn_transforms(points_mm: np.ndarray, syms: np.ndarray, turns_deg=TURN
     return out
 
 
-def silhouette_change_px2(base: np.ndarray, turned: np.ndarray, width_px: int,
-                          ref_width_px: int = REF_WIDTH_PX) -> float:
+def silhouette_change_px2(base: np.ndarray, turned: np.ndarray, width_px: int, ref_width_px: int = 640) -> float:
     """The area (px^2 at ``ref_width_px``) where exactly one of two visible silhouettes (H, W bool)
     covers a pixel, opened by a 3 x 3 square so slivers along the outline do not count."""
     x = (np.asarray(base, bool) ^ np.asarray(turned, bool)).astype(np.uint8)

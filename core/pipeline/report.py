@@ -17,6 +17,7 @@ from ..eval.tables import Row, Table, _fmt, ablation_table, error_table, to_mark
 from ..io.atomic import write_json_atomic, write_text_atomic
 from ..io.images import read_rgb
 from ..io.results import Estimate, write_bop19_csv
+from ..refine.confidence import STATUSES
 from ..refine.options import options_to_json
 from ..progress import progress
 from ..render import Renderer
@@ -125,11 +126,9 @@ def write_poses_csv(path: Path, poses: dict, marks: dict | None = None) -> Path:
     return path
 
 
-STATUSES = ("converged", "uncertain", "failed")
-
-
 def status_counts(marks: dict) -> dict:
-    """{status: number of poses} over ``marks`` (every status of :data:`STATUSES`, zeros included)."""
+    """{status: number of poses} over ``marks`` (every status of
+    :data:`ycbvss.refine.confidence.STATUSES`, zeros included)."""
     out = {s: 0 for s in STATUSES}
     for st, _, _ in marks.values():
         out[st] = out.get(st, 0) + 1
