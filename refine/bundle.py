@@ -22,6 +22,7 @@ from .axis_hold import AxisHoldTerm
 from .contour_slide import slide_delta
 from .contact import ContactTerm, contact_groups, contact_surface
 from .edge import edge_field, gradient_magnitude
+from .dark_objects import is_black
 from .flow_prior import predicted_flow, relative_motion
 from .jacobians import backproject_px, project_points
 from .init import initialise, sample_model_points
@@ -95,6 +96,10 @@ class _Stage:
         # (and under ("point", view index) f_point's own when only its templates have the reflection
         # basis, shading_reflection "point")
         self._light: dict = {}
+        # RefineOptions.edge_linear_dark: object index -> black (refine.dark_objects), measured on the
+        # first template it shows in; (view index) -> the level's linear-light edge field
+        self._black: dict[int, bool] = {}
+        self._lin_fields: dict = {}
         self._T_m_starts: list[np.ndarray] = []
         self.fold_angle = opt.fold_min_angle_deg
         self.at_finest = True            # run() sets it per blur level (interior_min_sharpness applies at the finest)
@@ -297,6 +302,9 @@ class _Stage:
         if eo["ridge_area"] and vr.area_color is not None:
             kw = dict(kw, interior_color=vr.area_color)
         ridge_lit = bool(eo["ridge_lit"] and vr.normal is not None)
+        black = self._black_labels(vr)
+        if black and eo["app"]:
+            kw = dict(kw, appearance_linear_labels=black)
         if eo.get("table") is not None:
             n_w, d_w = eo["table"]
             R, t = self.pb.T_c[i][:3, :3], self.pb.T_c[i][:3, 3]
@@ -307,6 +315,33 @@ class _Stage:
                                    self._lit.get(i), eo["lit"] and vr.normal is not None, self._light.get(i), kw,
                                    eo["app"], ridge_lit, self.opt.shading_rim_px, self._reflection_K(i),
                                    eo["synthetic"], self.opt.edge_synthetic_psf_px * self.pb.views[i].width / 640.0)
+
+    def _black_labels(self, vr: ViewRender) -> frozenset:
+        """Labels (object index + 1) of the black objects of view render ``vr``
+        (``RefineOptions.edge_linear_dark``; :func:`refine.dark_objects.is_black` of an object's
+        first template where it shows >= min_visible_px pixels)."""
+        thr = self.opt.edge_linear_dark
+        if thr <= 0.0:
+            return frozenset()
+        out = set()
+        for lab0, j in enumerate(vr.obj_index):
+            if j not in self._black:
+                m = vr.instance == lab0 + 1
+                if int(m.sum()) < self.opt.min_visible_px:
+                    continue
+                self._black[j] = is_black(vr.color, m, thr)
+            if self._black[j]:
+                out.add(lab0 + 1)
+        return frozenset(out)
+
+    def _linear_field(self, i: int, sigma: float):
+        """View i's edge field of the linear-light image at blur ``sigma`` (kept for the level)."""
+        key = (i, float(sigma))
+        if key not in self._lin_fields:
+            opt = self.opt
+            self._lin_fields[key] = edge_field(self.pb.views[i].image, sigma, opt.edge_norm_percentile,
+                                               opt.edge_interp, opt.edge_colour, True)
+        return self._lin_fields[key]
 
     def _edge_term(self, fields: dict, jobs: list, vis: set, eo: dict) -> EdgeTerm:
         """f_edge: up to ``n_edge_points`` template edge samples (model points, mm) per visible
@@ -331,7 +366,12 @@ class _Stage:
                     groups.append(EdgeGroup(i, j, X, N if N is not None and N.any() else None,
                                             slide=self._contour_slide(j, X, cont.get(j)) if cont is not None else None))
         sig = max(next(iter(fields.values())).sigma_px, 1.0) if fields else 1.0
-        term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0,
+        obj_fields = {}
+        if opt.edge_linear_dark > 0.0 and fields:
+            level_sigma = next(iter(fields.values())).sigma_px
+            obj_fields = {(gr.i, gr.j): self._linear_field(gr.i, level_sigma) for gr in groups
+                          if self._black.get(gr.j, False)}
+        term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0, obj_fields=obj_fields,
                         curv_floor=opt.edge_curv_floor / sig,
                         dilation_k=(opt.edge_dilation_k or opt.edge_contact_offset_k) if eo["dil"] else 0.0,
                         shift_k=opt.edge_shift_k if eo["dil"] else 0.0,
@@ -824,6 +864,7 @@ class _Stage:
             fields = {i: job.result() for i, job in jobs.items()}     # the views' fields on the view pool
             self._t("edge_field_s", time.perf_counter() - t0)
             self._light.clear()
+            self._lin_fields.clear()
             if li > 0 and opt.flow_prior and (opt.flow_prior_levels == "all" or self.at_finest):
                 self._flows.clear()    # f_t's flows follow the estimate: predicted again from this level's start
             if li > 0 and opt.verify_coarse:

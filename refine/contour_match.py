@@ -222,7 +222,8 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
                        image: np.ndarray, sigma_px: float, colour_edges: bool = True,
                        step_px: float = 0.25, outside_from_image_px: float | None = None,
                        inside_from_image_px: float | None = None,
-                       pixel_filter: str = "box") -> tuple[np.ndarray, np.ndarray]:
+                       pixel_filter: str = "box",
+                       linear_labels: frozenset = frozenset()) -> tuple[np.ndarray, np.ndarray]:
     """Offsets t (N,) px along the outward normals n (N, 2) of the image edge predicted from appearance,
     relative to where a flat-coloured silhouette shows it, at the contour samples uv (N, 2)
     (geometric boundary points, px) of the silhouettes ``inst == labels``.
@@ -241,7 +242,10 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
     along the normal from d px out (held at its value at d nearer), not one flat colour;
     ``inside_from_image_px`` d: the inside is the image's own profile from d px in, the template
     (scaled to meet it at d) nearer. The second reads the image where the object's own edge lies
-    once d is about a pixel, so the prediction then follows the image rather than the pose."""
+    once d is about a pixel, so the prediction then follows the image rather than the pose.
+
+    ``linear_labels``: silhouettes whose profiles stay in linear light (not sRGB-encoded), for an
+    object whose edge field is the linear-light image's (``RefineOptions.edge_linear_dark``)."""
     from scipy.ndimage import distance_transform_edt
 
     uv = np.asarray(uv, dtype=np.float64)
@@ -293,7 +297,8 @@ def appearance_offsets(uv: np.ndarray, labels: np.ndarray, inst: np.ndarray, col
         else:
             bo = _along(im, p, n, np.maximum(t[~inside_t], float(outside_from_image_px)))
         prof = np.concatenate([a, bo], axis=1)
-        prof = linear_to_srgb(convolve1d(prof, box, axis=1, mode="nearest"))
+        prof = convolve1d(prof, box, axis=1, mode="nearest")
+        prof = prof if int(lab) in linear_labels else linear_to_srgb(prof)
         off = _peak_offset(prof, t, sig, half) - ref
         ok = np.any(n != 0.0, axis=1) & np.all(np.isfinite(prof.reshape(len(p), -1)), axis=1)
         out[sel[ok]] = off[ok]

@@ -89,6 +89,11 @@ class RefineOptions:
     edge_colour: bool = True          # edge strength from the three colour channels, not the grey value
     edge_creases: bool = True         # geometric crease / self-occlusion edges among the interior samples
     edge_linear: bool = False         # edge field of the linear-light image (sRGB decoded), see refine.edge.srgb_to_linear
+    # > 0: a black object (its template's brightest channel has median albedo below this, linear
+    # light 0..1; refine.dark_objects) is aligned to the linear-light image's edge field, and its
+    # contour's appearance prediction (edge_appearance) stays in linear light: the sRGB encoding
+    # magnifies its unmodelled glossy rim about 9-fold. 0: off (every object in the sRGB field)
+    edge_linear_dark: float = 0.0
     edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
     # contour samples lifted at the rim's depth (the chord midpoint of the ray through the contour
     # pixel, refine.edge.rim_depth: one back-face render pass more per template) instead of the depth

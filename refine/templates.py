@@ -272,7 +272,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
                          appearance_model: str = "profile",
                          appearance_coverage: np.ndarray | None = None,
                          appearance_psf_px: float = 0.0,
-                         appearance_pixel_filter: str = "box") -> EdgeCandidates:
+                         appearance_pixel_filter: str = "box",
+                         appearance_linear_labels: frozenset = frozenset()) -> EdgeCandidates:
     """Contour and interior edge pixels of every rendered object of a view (no random numbers
     drawn, so views can be processed concurrently; :func:`select_edge_samples` draws from them).
     ``creases``: add the template's crease edges (folds sharper than ``fold_min_angle_deg``,
@@ -308,7 +309,9 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
     ``appearance_coverage`` (H, W; None: the binary silhouettes) and blurred by a camera blur of
     ``appearance_psf_px`` (:func:`ycbvss.refine.contour_match.synthetic_image`); samples where it shows
     no edge are dropped. ``appearance_pixel_filter``: the camera pixel's footprint the "profile" model
-    integrates each profile over (:func:`ycbvss.refine.contour_match.pixel_filter_kernel`)."""
+    integrates each profile over (:func:`ycbvss.refine.contour_match.pixel_filter_kernel`).
+    ``appearance_linear_labels``: the labels whose "profile" prediction stays in linear light
+    (``linear_labels`` of :func:`ycbvss.refine.contour_match.appearance_offsets`)."""
     uv_c, d_c, l_c = all_contour_points(vr.instance, vr.depth_mm, vr.back_depth_mm, vr.back_instance,
                                         contact_mm=contact_mm, junction_px=junction_px)
     at_table = None
@@ -332,7 +335,8 @@ def view_edge_candidates(vr: ViewRender, erode_px: int = 2, creases: bool = True
         elif image is not None:
             col = vr.color if appearance_color is None else appearance_color
             off, n = appearance_offsets(geo, l_c, vr.instance, col, image, blur_sigma_px,
-                                        pixel_filter=appearance_pixel_filter)
+                                        pixel_filter=appearance_pixel_filter,
+                                        linear_labels=frozenset(appearance_linear_labels))
             uv_c = uv_c + off[:, None] * n
     icol = vr.color if interior_color is None else interior_color
     uv_i, d_i, l_i = all_interior_points(vr.instance, vr.depth_mm, icol, vr.normal if creases else None,

@@ -102,17 +102,25 @@ class EdgeTerm:
     # edge is stronger or weaker) exerts no pull: along an edge a sample's position is not observed
     # (the aperture problem), the edge's strength varies with the image's contrast there
     across_only: bool = False
+    # (view index, object index) -> that object's own field in that view, instead of ``fields``'s
+    # (the linear-light field of a black object, RefineOptions.edge_linear_dark)
+    obj_fields: dict = field(default_factory=dict)
     _priors: dict = field(default_factory=dict, repr=False)
     _anchors: dict = field(default_factory=dict, repr=False)
 
     def n_obs(self) -> int:
         return int(sum(len(gr.X) for gr in self.groups))
 
+    def field_of(self, gr: EdgeGroup) -> EdgeField:
+        """The edge field group ``gr``'s samples are read in."""
+        f = self.obj_fields.get((gr.i, gr.j))
+        return self.fields[gr.i] if f is None else f
+
     def _eval(self, pb: BundleProblem, gr: EdgeGroup, jac: bool):
         K = pb.views[gr.i].K
         uv, Jc, Jo, valid = object_point_jacobians(K, pb.T_c[gr.i], pb.T_m[gr.j], gr.X)
         uv = np.where(valid[:, None], uv, -1e9)
-        E, grad, H, inside = sample_field(self.fields[gr.i], uv)
+        E, grad, H, inside = sample_field(self.field_of(gr), uv)
         ok = valid & inside
         E = np.where(ok, E, 1.0)
         return E, grad, H, ok, Jc, Jo, uv
@@ -172,7 +180,7 @@ class EdgeTerm:
         else:
             (uv, valid), Jc, Jo = project_points(K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X), None, None
         uv = np.where(valid[:, None], uv, -1e9)
-        fld = self.fields[gr.i]
+        fld = self.field_of(gr)
         E, grad, H, inside = sample_field(fld, uv)
         ok = valid & inside
         M = self._basis(np.where(ok[:, None], gr.N, 0.0))
@@ -232,7 +240,7 @@ class EdgeTerm:
     def cost(self, pb: BundleProblem) -> float:
         tot = 0.0
         for gi, gr in enumerate(self.groups):
-            f = self.fields[gr.i]
+            f = self.field_of(gr)
             if self._dilated(gr):
                 tot += self._dilation_cost(pb, gi, gr)
                 continue
