@@ -22,7 +22,7 @@ from .axis_hold import AxisHoldTerm
 from .contour_slide import slide_delta
 from .contact import ContactTerm, contact_groups, contact_surface
 from .edge import edge_field, gradient_magnitude
-from .dark_objects import is_black
+from .dark_objects import contrast_matched, is_black
 from .flow_prior import predicted_flow, relative_motion
 from .jacobians import backproject_px, project_points
 from .init import initialise, sample_model_points
@@ -369,8 +369,14 @@ class _Stage:
         obj_fields = {}
         if opt.edge_linear_dark > 0.0 and fields:
             level_sigma = next(iter(fields.values())).sigma_px
-            obj_fields = {(gr.i, gr.j): self._linear_field(gr.i, level_sigma) for gr in groups
-                          if self._black.get(gr.j, False)}
+            for gr in groups:
+                if not self._black.get(gr.j, False):
+                    continue
+                lin = self._linear_field(gr.i, level_sigma)
+                if opt.edge_linear_dark_contrast:
+                    uv, ok = project_points(pb.views[gr.i].K, pb.T_c[gr.i] @ pb.T_m[gr.j], gr.X)
+                    lin = contrast_matched(lin, fields[gr.i], uv[ok])
+                obj_fields[(gr.i, gr.j)] = lin
         term = EdgeTerm([fields.get(i) for i in range(len(pb.views))], groups, weight=1.0, obj_fields=obj_fields,
                         curv_floor=opt.edge_curv_floor / sig,
                         dilation_k=(opt.edge_dilation_k or opt.edge_contact_offset_k) if eo["dil"] else 0.0,

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .edge import srgb_to_linear
+from .edge import EdgeField, _field_from_magnitude, sample_E, srgb_to_linear
 
 
 def albedo_peak(colour_u8: np.ndarray, mask: np.ndarray) -> float:
@@ -40,3 +40,23 @@ def is_black(colour_u8: np.ndarray, mask: np.ndarray, threshold: float) -> bool:
         return False
     a = albedo_peak(colour_u8, mask)
     return bool(np.isfinite(a) and a < threshold)
+
+
+def contrast_matched(linear: EdgeField, srgb: EdgeField, uv: np.ndarray, min_strength: float = 0.02) -> EdgeField:
+    """The linear-light edge field ``linear`` rescaled so that at the image points ``uv`` (N, 2) px (an
+    object's edge samples) its strength 1 - E has the median it has in the sRGB field ``srgb``: the
+    edges' positions are the linear field's, their weight in f_edge the sRGB field's. Both fields
+    are normalised by their own image's strongest gradient, and in linear light a black object's
+    contour is 2-3 times weaker against the scene's highlights than in sRGB. Only samples with
+    strength >= ``min_strength`` in both fields count; with fewer than 10 of them, or at an
+    unchanged scale, ``linear`` is returned."""
+    a = 1.0 - sample_E(srgb, uv)
+    b = 1.0 - sample_E(linear, uv)
+    ok = np.isfinite(a) & np.isfinite(b) & (a >= min_strength) & (b >= min_strength)
+    if int(ok.sum()) < 10:
+        return linear
+    scale = float(np.median(a[ok]) / np.median(b[ok]))
+    if not np.isfinite(scale) or abs(scale - 1.0) < 1e-6:
+        return linear
+    return _field_from_magnitude(scale * (1.0 - linear.E.astype(np.float64)), linear.sigma_px, interp=linear.interp,
+                                 mx=1.0)

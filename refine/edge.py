@@ -126,9 +126,11 @@ def edge_field(image: np.ndarray, sigma_px: float = 1.0, norm_percentile: float 
 
 
 def _field_from_magnitude(mag: np.ndarray, sigma_px: float, norm_percentile: float = 100.0,
-                          interp: str = "cubic") -> EdgeField:
-    """:func:`edge_field` from its edge strength ``mag`` (H, W): normalised, E and its derivatives."""
-    mx = float(mag.max()) if norm_percentile >= 100 else float(np.percentile(mag, norm_percentile))
+                          interp: str = "cubic", mx: float | None = None) -> EdgeField:
+    """:func:`edge_field` from its edge strength ``mag`` (H, W): normalised, E and its derivatives.
+    ``mx``: the normalising strength (None: from ``norm_percentile``)."""
+    if mx is None:
+        mx = float(mag.max()) if norm_percentile >= 100 else float(np.percentile(mag, norm_percentile))
     if mx <= 1e-6:
         mx = float(mag.max())
     E = np.ones_like(mag) if mx <= 1e-6 else 1.0 - np.minimum(mag / mx, 1.0)

@@ -94,6 +94,11 @@ class RefineOptions:
     # contour's appearance prediction (edge_appearance) stays in linear light: the sRGB encoding
     # magnifies its unmodelled glossy rim about 9-fold. 0: off (every object in the sRGB field)
     edge_linear_dark: float = 0.0
+    # with edge_linear_dark: a black object's linear-light field rescaled per view so that at its edge
+    # samples its strength has the sRGB field's median (refine.dark_objects.contrast_matched): the
+    # edges' positions from linear light, their weight in f_edge as in the sRGB field (in linear light
+    # a black object's contour is weaker against the scene's highlights)
+    edge_linear_dark_contrast: bool = False
     edge_blur_match: bool = True      # contour samples where the level's blurred edge field shows the silhouette (refine.contour_match)
     # contour samples lifted at the rim's depth (the chord midpoint of the ray through the contour
     # pixel, refine.edge.rim_depth: one back-face render pass more per template) instead of the depth
