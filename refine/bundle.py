@@ -97,7 +97,7 @@ class _Stage:
         # basis, shading_reflection "point")
         self._light: dict = {}
         # RefineOptions.edge_linear_dark: object index -> black (refine.dark_objects), measured on the
-        # first template it shows in; (view index) -> the level's linear-light edge field
+        # first template it shows in; (view index, blur px) -> the level's linear-light edge field
         self._black: dict[int, bool] = {}
         self._lin_fields: dict = {}
         self._T_m_starts: list[np.ndarray] = []
