@@ -604,7 +604,7 @@ def test_an_object_drifting_at_the_cap_runs_the_finest_level_again_with_the_stal
     st.term_views, st.ridge_finest, st.drifting_objects = [], finest, set()
     if not finest:
         pb.obj_moments = [model_moments(pts)] * 2    # the ridge at every level, set by the stage's setup
-    st._light, st._flows, st._pending = {}, {}, {}
+    st._light, st._flows, st._pending, st._lin_fields = {}, {}, {}, {}
     st.__dict__["moments"] = [model_moments(pts)] * 2
     calls = []
 
