@@ -128,3 +128,31 @@ def test_contrast_matched_keeps_the_linear_edges_position_and_takes_the_srgb_wei
     at_lin = s[np.argmin(np.stack([sample_E(lin_f, uv + t * rad) for t in s], axis=1), axis=1)]
     at_mat = s[np.argmin(np.stack([sample_E(matched, uv + t * rad) for t in s], axis=1), axis=1)]
     assert np.max(np.abs(at_lin - at_mat)) <= 0.011
+
+
+def test_edge_term_reads_a_black_objects_own_field():
+    """f_edge's groups of the object given an own field (``EdgeTerm.obj_fields``) are read there, the
+    others in their view's field: the cost equals the sum of E over each group's projected samples in
+    its field."""
+    from ycbvss.refine.jacobians import project_points
+    from ycbvss.refine.problem import BundleProblem, View
+    from ycbvss.refine.terms import EdgeGroup, EdgeTerm
+
+    rng = np.random.default_rng(3)
+    img_a = rng.integers(0, 255, (120, 160, 3), dtype=np.uint8)
+    img_b = rng.integers(0, 255, (120, 160, 3), dtype=np.uint8)
+    f_view, f_own = edge_field(img_a, 1.0, colour=True), edge_field(img_b, 1.0, colour=True, linear=True)
+    K = np.array([[200.0, 0.0, 80.0], [0.0, 200.0, 60.0], [0.0, 0.0, 1.0]])
+    T_m = np.stack([np.eye(4), np.eye(4)])
+    T_m[:, 2, 3] = 1000.0
+    T_m[1, 0, 3] = 30.0
+    pb = BundleProblem([View(0, K, 160, 120)], [19, 5], np.eye(4)[None], T_m)
+    groups = [EdgeGroup(0, j, rng.normal(scale=40.0, size=(50, 3))) for j in (0, 1)]
+    term = EdgeTerm([f_view], groups, obj_fields={(0, 0): f_own})
+    assert term.field_of(groups[0]) is f_own and term.field_of(groups[1]) is f_view
+    expect = 0.0
+    for gr, f in zip(groups, (f_own, f_view)):
+        uv, ok = project_points(K, pb.T_c[0] @ pb.T_m[gr.j], gr.X)
+        expect += float(np.where(ok, sample_E(f, np.where(ok[:, None], uv, -1e9)), 1.0).sum())
+    assert term.cost(pb) == pytest.approx(expect, rel=1e-9)
+    assert EdgeTerm([f_view], groups).cost(pb) != pytest.approx(expect, rel=1e-3)
