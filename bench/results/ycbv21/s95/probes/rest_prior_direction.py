@@ -1,13 +1,14 @@
 """Session 95 probe: for each object, the tilt the resting-face prior (refine.table_rest, the official
 points.xyz hull) asks for at the exact GT (the suite stands each object on a face of the scan), against
 the object's rotation rest's tilt (world x, y, deg). Run from the repository root with suite_runs.py rows:
-python bench/results/ycbv21/s95/probes/rest_prior_direction.py ROWS.csv ..."""
+python bench/results/ycbv21/s95/probes/rest_prior_direction.py ROWS.csv ...
+(the suite rendered at /tmp/suite/full). The .txt beside it: bench/results/ycbv21/s94/rows/s94_long1_gt_seed0_linear_contrast.csv.gz bench/results/ycbv21/s95/rows/s95_reused_long2_gt_seed0.csv.gz bench/results/ycbv21/s94/rows/s94_long3_gt_seed0_linear_contrast.csv.gz."""
 import pandas as pd, numpy as np, json, sys, warnings
 warnings.filterwarnings('ignore')
 from ycbvss.refine.table_rest import rest_faces
 from ycbvss.io.ycbv import model_center_mm
 import os
-root='/work/shared/data/ycbv/models/' if os.path.isdir('/work/shared/data/ycbv/models/') else '../shared/data/ycbv/models/'
+root='../shared/data/ycbv/models/'
 names=sorted(os.listdir(root))
 a=pd.concat([pd.read_csv(f) for f in sys.argv[1:]])
 for (clip,oid),g in a.groupby(['clip','obj_id']):
