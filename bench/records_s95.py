@@ -35,7 +35,7 @@ def _write(a: pd.DataFrame, name: str) -> Path:
     S95.mkdir(parents=True, exist_ok=True)
     p = S95 / name
     tmp = p.with_name(p.name + ".part")
-    a.to_csv(tmp, index=False, compression="gzip")
+    a.to_csv(tmp, index=False, compression={"method": "gzip", "mtime": 0})   # same bytes on a re-run
     tmp.replace(p)
     return p
 
