@@ -9,7 +9,7 @@ from the session 93/94 "before" rows. Everything else was refined with today's d
         --long4-root /tmp/suite/long4
 
 writes ``bench/results/ycbv21/s95/rows/*.csv.gz`` (the assembled sets, if the session's new row
-files are given with ``--new-long-p0`` / ``--new-sm-p15``) and the report tables of each set
+files are given with ``--new-long-p0`` / ``--new-sm-p15`` / ``--new-long4-after`` / ``--new-long4-before``) and the report tables of each set
 (``suite_runs.py report``): ``s95/long_seeds05/``, ``s95/bias_long_seed0/`` and
 ``s95/short_medium_seeds015/``; and the sealed ``ycbv21-long4`` scenes 67 and 68 (the two with a clamp)
 at seed 0 with today's defaults and without session 94's change (``edge_linear_dark`` 0), paired on
