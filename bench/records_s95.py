@@ -120,12 +120,13 @@ def main(argv: list[str] | None = None) -> int:
         if missing:
             print(f"{name}: skipped, missing {missing}")
             continue
-        # each set's own suite root and scenes: the report reads the scenes' visibility from them
-        where = (["--suite-root", a.long4_root, "--suite", "ycbv21-long4", "--scenes", "67,68"] if name.startswith("long4")
-                 else ["--suite-root", a.suite_root])
-        if name.startswith("long4") and not a.long4_root:
+        long4 = name.startswith("long4")
+        if long4 and not a.long4_root:
             print(f"{name}: skipped, no --long4-root")
             continue
+        # each set's own suite root and scenes: the report reads the scenes' visibility from them
+        where = (["--suite-root", a.long4_root, "--suite", "ycbv21-long4", "--scenes", "67,68"] if long4
+                 else ["--suite-root", a.suite_root])
         suite_runs.main(["report", "--dataset", a.dataset, *where, "--rows", *map(str, files),
                          "--out", str(RES / "s95" / name)])
     md = paired_long4()

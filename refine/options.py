@@ -102,8 +102,9 @@ class RefineOptions:
     # bowl: no column worse but medium R from the GT (0.190 -> 0.191; medium tx equal), e.g. short paper init
     # 0.123/0.090/0.719/0.321/0.184 -> 0.103/0.082/0.658/0.288/0.167; the other objects' per-clip means
     # move by a median 0.045 mm in depth and 0.004 deg (at most 0.68 mm, short-6's potted meat can, and
-    # 0.46 deg, medium-7's foam brick from the GT, 0.57 -> 1.02 deg). Without the contrast match (the plain linear field): long-1 tz 0.206, R
-    # 0.111; short and medium better than before but worse than with it in depth. Held out (report
+    # 0.46 deg, medium-7's foam brick from the GT, 0.57 -> 1.02 deg). Without the contrast match (the
+    # plain linear field): long-1 tz 0.206, R 0.111; short and medium better than before but worse
+    # than with it in depth. Held out (report
     # only): long-3 from the paper's init, seed 5, the extra-large clamp ty 0.257 -> 0.129 mm, R 0.262 ->
     # 0.232 deg (still above 0.2), tz 0.309 -> 0.374; the scene's means 0.055/0.071/0.153/0.096/0.090 ->
     # 0.053/0.050/0.193/0.090/0.076 (plain field: tz 0.266)
